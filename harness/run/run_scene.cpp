@@ -1,0 +1,131 @@
+// `clothbench run`: load, check resources, simulate, verify, report, write VTK + JSON.
+#include "harness/run/run_scene.hpp"
+
+#include <fmt/core.h>
+#include <omp.h>
+#include <sys/resource.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "harness/machine/machine_context.hpp"
+#include "harness/output/atomic_file.hpp"
+#include "harness/output/vtk_writer.hpp"
+#include "harness/run/run_summary.hpp"
+#include "harness/scene/scene.hpp"
+#include "kernels/simulation.hpp"
+#include "schedulers/registry.hpp"
+
+namespace clothbench::harness {
+
+namespace {
+
+constexpr int kExitPassed = 0;
+constexpr int kExitFailed = 1;
+constexpr int kExitBadInput = 2;
+
+/// Applies the command line's overrides to the scene's configuration.
+void apply_overrides(const RunOptions& options, Scene& scene) {
+  if (options.steps) scene.steps = *options.steps;
+  kernels::SolverConfig& solver = scene.simulation.solver;
+  if (options.formulation) {
+    solver.formulation = *options.formulation == "violation" ? kernels::Formulation::violation
+                                                             : kernels::Formulation::potential;
+  }
+  if (options.gradient) {
+    solver.gradient = *options.gradient == "numeric" ? kernels::GradientMode::numeric
+                                                     : kernels::GradientMode::analytic;
+  }
+  if (options.preconditioner) solver.preconditioner = *options.preconditioner;
+}
+
+}  // namespace
+
+std::uint64_t peak_resident_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports KiB
+}
+
+int resolve_threads(int requested, bool allow_oversubscribe, const char* flag) {
+  const int hardware = hardware_threads();
+  const int threads = requested > 0 ? requested : omp_get_max_threads();
+  if (threads > hardware && !allow_oversubscribe) {
+    throw std::invalid_argument(fmt::format(
+        "{}: {} threads requested but this machine has {} hardware threads; pass "
+        "--oversubscribe to run oversubscribed (results are then labelled as such)",
+        flag, threads, hardware));
+  }
+  return threads;
+}
+
+void check_memory(const kernels::SimulationConfig& config, const std::filesystem::path& file) {
+  const std::uint64_t needed = kernels::estimate_memory_bytes(config);
+  const std::uint64_t available = total_memory_bytes();
+  if (needed > available * 9 / 10) {
+    throw std::invalid_argument(fmt::format(
+        "{}: [cloth] particles: {} x {} particles need about {:.1f} GiB, but this machine has "
+        "{:.1f} GiB of memory",
+        file.string(), config.cloth.particles_i, config.cloth.particles_j,
+        static_cast<double>(needed) / (1u << 30), static_cast<double>(available) / (1u << 30)));
+  }
+}
+
+int run_scene(const RunOptions& options) {
+  Scene scene;
+  std::unique_ptr<schedulers::LoopDriver> driver;
+  int threads = 0;
+  try {
+    scene = load_scene(options.scene_file, default_presets_file());
+    apply_overrides(options, scene);
+    check_memory(scene.simulation, scene.file);
+    threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
+    driver = schedulers::make_driver(options.scheduler);
+  } catch (const SceneError& error) {
+    fmt::print(stderr, "clothbench: {}\n", error.what());
+    return kExitBadInput;
+  } catch (const std::invalid_argument& error) {
+    fmt::print(stderr, "clothbench: {}\n", error.what());
+    return kExitBadInput;
+  }
+  omp_set_num_threads(threads);
+
+  kernels::Simulation simulation(scene.simulation);
+  const bool oversubscribed = threads > hardware_threads();
+  fmt::print("clothbench run: {} ({})\n", scene.name, scene.file.string());
+  fmt::print("  particles {} x {}, fabric {}, formulation {}, gradient {}, preconditioner {}\n",
+             scene.simulation.cloth.particles_i, scene.simulation.cloth.particles_j,
+             scene.simulation.fabric_name,
+             scene.simulation.solver.formulation == kernels::Formulation::potential ? "potential"
+                                                                                   : "violation",
+             scene.simulation.solver.gradient == kernels::GradientMode::analytic ? "analytic"
+                                                                                 : "numeric",
+             scene.simulation.solver.preconditioner ? "block-jacobi" : "off");
+  fmt::print("  scheduler {}, threads {}{}, steps {}\n", driver->name(), threads,
+             oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
+  if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());
+
+  RunSummary summary = simulate(simulation, *driver, scene.steps, options.quiet);
+  summary.threads = threads;
+  summary.oversubscribed = oversubscribed;
+  summary.peak_resident_bytes = peak_resident_bytes();
+  print_summary(summary);
+
+  const std::filesystem::path dir = options.output_dir / scene.file.stem();
+  nlohmann::json document = summary_json(summary, scene, driver->name());
+  document["machine"] = machine_context();
+  try {
+    if (options.write_vtk && summary.verification.passed) {
+      write_vtk(dir / "final.vtk", surface_mesh(simulation), scene.name);
+    }
+    write_file_atomically(dir / "summary.json", document.dump(2) + "\n");
+  } catch (const std::exception& error) {
+    fmt::print(stderr, "clothbench: could not write results: {}\n", error.what());
+    return kExitFailed;
+  }
+  fmt::print("  wrote {}\n", (dir / "summary.json").string());
+  return summary.verification.passed ? kExitPassed : kExitFailed;
+}
+
+}  // namespace clothbench::harness

@@ -1,0 +1,29 @@
+// `clothbench run`: one verified simulation of a scene, with a summary.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace clothbench::harness {
+
+/// Options of one run, as given on the command line.
+struct RunOptions {
+  std::filesystem::path scene_file;
+  std::string scheduler = "static";        ///< scheduler spec, e.g. "dynamic:2@blocks"
+  int threads = 0;                         ///< 0 = OpenMP default (OMP_NUM_THREADS or cores)
+  bool allow_oversubscribe = false;        ///< threads above hardware PUs only with this
+  std::optional<int> steps;                ///< override the scene's step count
+  std::optional<std::string> formulation;  ///< override: "potential" | "violation"
+  std::optional<std::string> gradient;     ///< override: "analytic" | "numeric"
+  std::optional<bool> preconditioner;      ///< override
+  std::filesystem::path output_dir = "results/runs";  ///< where the VTK and JSON go
+  bool write_vtk = true;
+  bool quiet = false;  ///< no per-step lines
+};
+
+/// Runs the scene and prints per-step cost, final summary and `Verification: PASSED/FAILED`.
+/// Returns the process exit code: 0 passed, 1 verification failed, 2 bad input.
+int run_scene(const RunOptions& options);
+
+}  // namespace clothbench::harness

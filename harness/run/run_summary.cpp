@@ -1,0 +1,164 @@
+// Running, verifying and reporting one simulation (see run_summary.hpp).
+#include "harness/run/run_summary.hpp"
+
+#include <fmt/core.h>
+
+#include <cmath>
+
+namespace clothbench::harness {
+
+namespace {
+
+/// Mass, finiteness and non-penetration of the current state.
+void verify_state(const kernels::Simulation& simulation, const kernels::StateDiagnostics& d,
+                  int step, RunSummary& summary) {
+  const kernels::ClothConfig& cloth = simulation.config().cloth;
+  const double expected = simulation.mesh().areal_density() * cloth.size_i * cloth.size_j;
+  summary.mass_error = std::abs(d.total_mass - expected) / expected;
+  if (!d.finite) summary.verification.fail(fmt::format("step {}: non-finite state", step));
+  if (summary.mass_error > 1e-12) {
+    summary.verification.fail(
+        fmt::format("step {}: mass {:.15g} kg differs from {:.15g} kg", step, d.total_mass, expected));
+  }
+  if (!simulation.obstacles().empty() && d.min_particle_distance < 0.0) {
+    summary.verification.fail(fmt::format(
+        "step {}: a particle is {:.3g} m inside an obstacle", step, -d.min_particle_distance));
+  }
+}
+
+}  // namespace
+
+RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
+                    bool quiet) {
+  RunSummary summary;
+  double cost_sum = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    const kernels::StepReport report = simulation.step(driver);
+    const kernels::MinimiserReport& m = report.minimiser;
+    StepRecord record{report.step,
+                      m.iterations,
+                      m.evaluations,
+                      m.final.cost,
+                      kernels::MinimiserReport::rms(m.final),
+                      m.final.residual_max,
+                      kernels::to_string(m.reason),
+                      report.seconds,
+                      report.active_elements};
+    summary.steps.push_back(record);
+    summary.wall_seconds += report.seconds;
+    summary.total_iterations += m.iterations;
+    summary.total_evaluations += m.evaluations;
+    cost_sum += m.final.cost / static_cast<double>(std::max<std::int64_t>(1, report.active_elements));
+    if (!quiet) {
+      fmt::print("  step {:4d}  iterations {:4d}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
+                 " max {:9.3e}  {:>7.3f} s  {}\n",
+                 record.step, record.iterations, record.evaluations, record.cost,
+                 record.residual_rms, record.residual_max, record.seconds, record.stop);
+    }
+    if (!std::isfinite(m.final.value) || !std::isfinite(m.final.cost)) {
+      summary.verification.fail(fmt::format("step {}: non-finite cost", record.step));
+      break;
+    }
+  }
+  summary.average_minimised_cost =
+      summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());
+  summary.final_state = simulation.diagnostics();
+  summary.simulation_bytes = simulation.memory_bytes();
+  verify_state(simulation, summary.final_state, simulation.steps_done(), summary);
+  return summary;
+}
+
+void print_summary(const RunSummary& s) {
+  const kernels::StateDiagnostics& d = s.final_state;
+  fmt::print("Summary\n");
+  fmt::print("  steps                    {}\n", s.steps.size());
+  fmt::print("  CG iterations            {} ({} evaluations)\n", s.total_iterations,
+             s.total_evaluations);
+  fmt::print("  average minimised cost   {:.6e} (final E per active element, mean over steps)\n",
+             s.average_minimised_cost);
+  fmt::print("  contact force / weight   {:.6f} ({:.6g} N of {:.6g} N)\n",
+             d.weight > 0 ? d.contact_support / d.weight : 0.0, d.contact_support, d.weight);
+  fmt::print("  min particle distance    {:.3e} m (to the nearest obstacle)\n",
+             d.min_particle_distance);
+  fmt::print("  max surface penetration  {:.3e} m (interpolated surface)\n",
+             d.max_surface_penetration);
+  fmt::print("  max strain               {:.4f}\n", d.max_strain);
+  fmt::print("  mass error               {:.3e} (relative)\n", s.mass_error);
+  fmt::print("  memory                   {:.1f} MiB simulation, {:.1f} MiB peak resident\n",
+             static_cast<double>(s.simulation_bytes) / (1 << 20),
+             static_cast<double>(s.peak_resident_bytes) / (1 << 20));
+  fmt::print("  wall time                {:.3f} s ({} threads{})\n", s.wall_seconds, s.threads,
+             s.oversubscribed ? ", oversubscribed" : "");
+  for (const std::string& f : s.verification.failures) fmt::print("  check failed: {}\n", f);
+  fmt::print("Verification: {}\n", s.verification.passed ? "PASSED" : "FAILED");
+}
+
+nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::string& scheduler) {
+  nlohmann::json steps = nlohmann::json::array();
+  for (const StepRecord& r : s.steps) {
+    steps.push_back({{"step", r.step},
+                     {"iterations", r.iterations},
+                     {"evaluations", r.evaluations},
+                     {"cost", r.cost},
+                     {"residual_rms", r.residual_rms},
+                     {"residual_max", r.residual_max},
+                     {"stop", r.stop},
+                     {"seconds", r.seconds},
+                     {"active_elements", r.active_elements}});
+  }
+  const kernels::StateDiagnostics& d = s.final_state;
+  nlohmann::json doc = {
+      {"schema", "clothbench.run"},
+      {"schema_version", 1},
+      {"scene", {{"name", scene.name}, {"file", scene.file.string()}, {"hash", scene.source_sha256_or_fnv}, {"source", scene.source_text}}},
+      {"scheduler", scheduler},
+      {"threads", s.threads},
+      {"oversubscribed", s.oversubscribed},
+      {"wall_seconds", s.wall_seconds},
+      {"average_minimised_cost", s.average_minimised_cost},
+      {"cg_iterations", s.total_iterations},
+      {"evaluations", s.total_evaluations},
+      {"contact_support_n", d.contact_support},
+      {"weight_n", d.weight},
+      {"min_particle_distance_m", d.min_particle_distance},
+      {"max_surface_penetration_m", d.max_surface_penetration},
+      {"max_strain", d.max_strain},
+      {"mass_error", s.mass_error},
+      {"active", {{"particles", d.active_particles}, {"edges", d.active_edges}, {"triples", d.active_triples}}},
+      {"memory", {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
+      {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
+      {"steps", steps}};
+  // A NaN must never reach a result file: JSON would silently write null for it.
+  auto check = [](const nlohmann::json& j, const auto& self, const std::string& path) -> void {
+    if (j.is_number_float() && !std::isfinite(j.get<double>())) {
+      throw std::runtime_error("non-finite value in result field " + path);
+    }
+    if (j.is_object()) {
+      for (auto it = j.begin(); it != j.end(); ++it) self(it.value(), self, path + "." + it.key());
+    } else if (j.is_array()) {
+      for (std::size_t i = 0; i < j.size(); ++i) self(j[i], self, path + "[" + std::to_string(i) + "]");
+    }
+  };
+  check(doc, check, "run");
+  return doc;
+}
+
+SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const kernels::ClothState& st = simulation.state();
+  SurfaceMesh out;
+  out.points.reserve(static_cast<std::size_t>(mesh.slot_count()));
+  std::vector<double> contact(static_cast<std::size_t>(mesh.slot_count()));
+  std::vector<double> pinned(static_cast<std::size_t>(mesh.slot_count()));
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    out.points.emplace_back(kernels::vec3(st.position, s));
+    contact[static_cast<std::size_t>(s)] = st.contact_force[s];
+    pinned[static_cast<std::size_t>(s)] = (mesh.flags[s] & kernels::kParticlePinned) ? 1.0 : 0.0;
+  }
+  out.quads = simulation.surface_quads();
+  out.point_scalars.emplace_back("contact_force_N", std::move(contact));
+  out.point_scalars.emplace_back("pinned", std::move(pinned));
+  return out;
+}
+
+}  // namespace clothbench::harness

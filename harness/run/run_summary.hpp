@@ -1,0 +1,72 @@
+// The measured record of one simulation run, its verification, and its text/JSON/VTK forms.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "harness/output/vtk_writer.hpp"
+#include "harness/scene/scene.hpp"
+#include "kernels/simulation.hpp"
+
+namespace clothbench::harness {
+
+/// Checks a run makes on its own result before any time is reported.
+struct Verification {
+  bool passed = true;
+  std::vector<std::string> failures;  ///< one line per failed check
+  void fail(std::string why) {
+    passed = false;
+    failures.push_back(std::move(why));
+  }
+};
+
+/// One step's line of the run record.
+struct StepRecord {
+  int step = 0;
+  int iterations = 0;
+  int evaluations = 0;
+  double cost = 0.0;          ///< final E of the step
+  double residual_rms = 0.0;  ///< sqrt(En / free particles)
+  double residual_max = 0.0;
+  std::string stop;
+  double seconds = 0.0;
+  std::int64_t active_elements = 0;
+};
+
+/// Everything a run measured.
+struct RunSummary {
+  std::vector<StepRecord> steps;
+  double wall_seconds = 0.0;             ///< all steps
+  double average_minimised_cost = 0.0;   ///< mean over steps of final E / active elements
+  kernels::StateDiagnostics final_state;
+  double mass_error = 0.0;               ///< |total mass - density W H| / (density W H)
+  std::int64_t total_iterations = 0;
+  std::int64_t total_evaluations = 0;
+  int threads = 1;
+  bool oversubscribed = false;
+  std::uint64_t peak_resident_bytes = 0;
+  std::uint64_t simulation_bytes = 0;
+  Verification verification;
+};
+
+/// Runs `steps` steps, verifying the state after each; stops early on a non-finite state.
+RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
+                    bool quiet);
+/// Prints the summary block and the `Verification: PASSED/FAILED` line.
+void print_summary(const RunSummary& summary);
+/// The run as JSON (no machine block; the caller adds it).
+nlohmann::json summary_json(const RunSummary& summary, const Scene& scene,
+                            const std::string& scheduler);
+/// The current cloth surface with contact force and mesh level per point.
+SurfaceMesh surface_mesh(const kernels::Simulation& simulation);
+/// Peak resident set size of this process (bytes).
+std::uint64_t peak_resident_bytes();
+/// Thread count to use: `requested` (>0) or the OpenMP default; throws std::invalid_argument
+/// naming `flag` when it exceeds the hardware threads and oversubscription is not allowed.
+int resolve_threads(int requested, bool allow_oversubscribe, const char* flag);
+/// Throws std::invalid_argument naming the file and key when the scene would not fit in memory.
+void check_memory(const kernels::SimulationConfig& config, const std::filesystem::path& file);
+
+}  // namespace clothbench::harness

@@ -1,0 +1,49 @@
+// Nonlinear conjugate gradient (Polak-Ribiere+, preconditioned, restart on loss of descent)
+// with a strong-Wolfe line search that only ever accepts a decrease (MODEL.md section 5,
+// paper Algorithm-I). Runs on every thread of the step's parallel region; all decisions
+// depend only on reduced scalars, which are bit-identical on every thread.
+#pragma once
+
+#include <string>
+
+#include "kernels/step_objective.hpp"
+
+namespace clothbench::kernels {
+
+/// Why a step's minimisation stopped.
+enum class StopReason { converged, iteration_cap, line_search_stalled, no_descent, time_budget };
+const char* to_string(StopReason reason);
+
+/// Settings of one minimisation.
+struct MinimiserSettings {
+  double tolerance = 1e-3;      ///< stop when sqrt(cost / free particles) <= tolerance
+  int max_iterations = 200;
+  int max_line_search = 20;     ///< evaluations per line search
+  int refresh_every = 10;       ///< rebuild the preconditioner every k iterations (0 = never)
+  double armijo = 1e-4;         ///< c1
+  double curvature = 0.4;       ///< c2 (strong Wolfe)
+};
+
+/// Outcome of one step's minimisation.
+struct MinimiserReport {
+  int iterations = 0;
+  int evaluations = 0;
+  int restarts = 0;
+  StopReason reason = StopReason::iteration_cap;
+  Evaluation initial;  ///< at the step's initial guess
+  Evaluation final;    ///< at the accepted result
+  /// RMS normalised residual sqrt(cost / free particles) of an evaluation.
+  static double rms(const Evaluation& e) {
+    return e.free_particles > 0 ? std::sqrt(e.cost / static_cast<double>(e.free_particles)) : 0.0;
+  }
+};
+
+/// Minimises one step's objective. `first_alpha` carries the first accepted step length from
+/// step to step (in and out; every thread holds its own identical copy).
+/// `stop_requested` (may be null) is polled after each iteration on every thread; it must
+/// return the same answer on every thread (the caller broadcasts it).
+MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
+                              const MinimiserSettings& settings, double& first_alpha,
+                              bool (*stop_requested)(void*) = nullptr, void* stop_state = nullptr);
+
+}  // namespace clothbench::kernels

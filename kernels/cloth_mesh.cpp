@@ -1,0 +1,121 @@
+// Blocked storage layout and reference geometry of the cloth mesh (see cloth_mesh.hpp).
+#include "kernels/cloth_mesh.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace clothbench::kernels {
+
+ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
+    : size_i_(cloth.particles_i),
+      size_j_(cloth.particles_j),
+      block_size_(cloth.block_size),
+      spacing_{cloth.size_i / (cloth.particles_i - 1), cloth.size_j / (cloth.particles_j - 1)},
+      areal_density_(areal_density) {
+  if (size_i_ < 2 || size_j_ < 2 || block_size_ < 1) {
+    throw std::invalid_argument("ClothMesh: need at least 2 x 2 particles and a block size >= 1");
+  }
+  const std::int64_t n = static_cast<std::int64_t>(size_i_) * size_j_;
+  if (n > INT32_MAX / 2) throw std::invalid_argument("ClothMesh: too many particles");
+  slot_of_grid.resize(static_cast<std::size_t>(n));
+  grid_i_.resize(static_cast<std::size_t>(n));
+  grid_j_.resize(static_cast<std::size_t>(n));
+
+  // Blocks in row-major block order; inside a block, particles row by row (one tile per row).
+  const int blocks_i = (size_i_ + block_size_ - 1) / block_size_;
+  const int blocks_j = (size_j_ + block_size_ - 1) / block_size_;
+  std::int64_t next_slot = 0;
+  block_tile_begin.push_back(0);
+  for (int bi = 0; bi < blocks_i; ++bi) {
+    for (int bj = 0; bj < blocks_j; ++bj) {
+      const int i0 = bi * block_size_, i1 = std::min(size_i_, i0 + block_size_);
+      const int j0 = bj * block_size_, j1 = std::min(size_j_, j0 + block_size_);
+      for (int i = i0; i < i1; ++i) {
+        tile_slot_begin.push_back(next_slot);
+        for (int j = j0; j < j1; ++j) {
+          slot_of_grid[static_cast<std::size_t>(i) * size_j_ + j] =
+              static_cast<std::int32_t>(next_slot);
+          grid_i_[next_slot] = i;
+          grid_j_[next_slot] = j;
+          ++next_slot;
+        }
+      }
+      block_tile_begin.push_back(static_cast<std::int64_t>(tile_slot_begin.size()));
+    }
+  }
+  tile_slot_begin.push_back(next_slot);
+
+  flags.assign(static_cast<std::size_t>(n), kParticleActive);
+  mass.assign(static_cast<std::size_t>(n), 0.0);
+  next.assign(static_cast<std::size_t>(2 * n), -1);
+  prev.assign(static_cast<std::size_t>(2 * n), -1);
+  edge_active.assign(static_cast<std::size_t>(2 * n), 0);
+  triple_active.assign(static_cast<std::size_t>(2 * n), 0);
+  edge_rest.assign(static_cast<std::size_t>(2 * n), 0.0f);
+  edge_width.assign(static_cast<std::size_t>(2 * n), 0.0f);
+  triple_rest.assign(static_cast<std::size_t>(2 * n), 0.0f);
+  triple_width.assign(static_cast<std::size_t>(2 * n), 0.0f);
+
+  // Uniform finest mesh: every grid neighbour is a node.
+  for (int i = 0; i < size_i_; ++i) {
+    for (int j = 0; j < size_j_; ++j) {
+      const std::int64_t s = slot(i, j);
+      if (i + 1 < size_i_) next[element_id(s, 0)] = slot(i + 1, j);
+      if (i > 0) prev[element_id(s, 0)] = slot(i - 1, j);
+      if (j + 1 < size_j_) next[element_id(s, 1)] = slot(i, j + 1);
+      if (j > 0) prev[element_id(s, 1)] = slot(i, j - 1);
+    }
+  }
+  for (const auto& [pi, pj] : cloth.pinned) flags[slot(pi, pj)] |= kParticlePinned;
+  update_reference_geometry();
+}
+
+void ClothMesh::update_reference_geometry() {
+  // Widths and masses from the cells around each node: a node's perpendicular extent is half
+  // the distance to the previous plus half the distance to the next node on the crossing line.
+  const std::int64_t n = slot_count();
+  auto half_extent = [&](std::int64_t s, int d) {
+    // Extent along direction d of the area a node stands for (m).
+    double extent = 0.0;
+    const std::int64_t id = element_id(s, d);
+    if (next[id] >= 0) {
+      const int span = d == 0 ? grid_i_[next[id]] - grid_i_[s] : grid_j_[next[id]] - grid_j_[s];
+      extent += 0.5 * span * spacing_[d];
+    }
+    if (prev[id] >= 0) {
+      const int span = d == 0 ? grid_i_[s] - grid_i_[prev[id]] : grid_j_[s] - grid_j_[prev[id]];
+      extent += 0.5 * span * spacing_[d];
+    }
+    return extent;
+  };
+  for (std::int64_t s = 0; s < n; ++s) {
+    const bool node = (flags[s] & (kParticleActive | kParticleGhost)) != 0;
+    const bool active = (flags[s] & kParticleActive) != 0;
+    mass[s] = active ? areal_density_ * half_extent(s, 0) * half_extent(s, 1) : 0.0;
+    for (int d = 0; d < 2; ++d) {
+      const std::int64_t id = element_id(s, d);
+      const int other = 1 - d;
+      const bool has_next = node && next[id] >= 0;
+      edge_active[id] = has_next ? 1 : 0;
+      if (has_next) {
+        const int span = d == 0 ? grid_i_[next[id]] - grid_i_[s] : grid_j_[next[id]] - grid_j_[s];
+        edge_rest[id] = static_cast<float>(span * spacing_[d]);
+        edge_width[id] = static_cast<float>(half_extent(s, other));
+      }
+      const bool has_triple = active && next[id] >= 0 && prev[id] >= 0;
+      triple_active[id] = has_triple ? 1 : 0;
+      if (has_triple) {
+        triple_rest[id] = static_cast<float>(half_extent(s, d));
+        triple_width[id] = static_cast<float>(half_extent(s, other));
+      }
+    }
+  }
+}
+
+double ClothMesh::total_mass() const {
+  double total = 0.0;
+  for (double m : mass) total += m;
+  return total;
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,98 @@
+// Blocked structure-of-arrays storage of the cloth's particles, edges and triples
+// (MODEL.md sections 1 and 7, paper section 4.1 and Fig. 7).
+//
+// The finest I x J grid is cut into B x B particle blocks; each block's particles are stored
+// together, row by row. A particle's storage index is its *slot*. Every slot owns two edge
+// slots and two triple slots, one per grid direction d (0 = along i / warp, 1 = along j / weft):
+//   edge   2*slot+d : from the particle to the next node along direction d;
+//   triple 2*slot+d : centred on the particle, from the previous to the next node along d.
+// All storage is allocated once for the finest mesh; AMRC only flips flags and rewrites the
+// neighbour indices, rest lengths and widths in place (paper section 3.2).
+//
+// Reductions are summed per *tile* (one row of one block, at most B consecutive slots) and the
+// tile partials combined in tile order, so every scheduler and thread count gives the same bits.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "kernels/simulation_config.hpp"
+
+namespace clothbench::kernels {
+
+/// Particle state bits.
+enum ParticleFlag : std::uint8_t {
+  kParticleActive = 1,  ///< simulated (an unknown unless pinned)
+  kParticleGhost = 2,   ///< on a fine/coarse boundary: midpoint of its coarse edge, not simulated
+  kParticlePinned = 4,  ///< active but held fixed
+};
+
+/// Index of the edge or triple of direction `d` owned by slot `slot`.
+constexpr std::int64_t element_id(std::int64_t slot, int d) { return 2 * slot + d; }
+constexpr std::int64_t element_slot(std::int64_t id) { return id / 2; }
+constexpr int element_direction(std::int64_t id) { return static_cast<int>(id % 2); }
+
+/// The cloth's topology and reference geometry. Sizes never change after construction.
+class ClothMesh {
+ public:
+  /// Builds the finest uniform mesh of `cloth` with areal density `areal_density` (kg/m^2).
+  ClothMesh(const ClothConfig& cloth, double areal_density);
+
+  // --- grid and blocked layout -------------------------------------------------------
+  [[nodiscard]] int size_i() const { return size_i_; }
+  [[nodiscard]] int size_j() const { return size_j_; }
+  [[nodiscard]] int block_size() const { return block_size_; }
+  [[nodiscard]] std::int64_t slot_count() const { return static_cast<std::int64_t>(flags.size()); }
+  [[nodiscard]] std::int64_t block_count() const {
+    return static_cast<std::int64_t>(block_tile_begin.size()) - 1;
+  }
+  [[nodiscard]] std::int64_t tile_count() const {
+    return static_cast<std::int64_t>(tile_slot_begin.size()) - 1;
+  }
+  /// Storage slot of grid point (i, j).
+  [[nodiscard]] std::int32_t slot(int i, int j) const {
+    return slot_of_grid[static_cast<std::size_t>(i) * size_j_ + j];
+  }
+  /// Rest spacing of the finest grid along direction d (m).
+  [[nodiscard]] double spacing(int d) const { return spacing_[d]; }
+  /// Rest position of grid point (i, j) within the sheet, in sheet coordinates (m).
+  [[nodiscard]] double rest_coordinate(int d, int index) const { return index * spacing_[d]; }
+
+  /// Grid coordinates of a slot.
+  [[nodiscard]] int grid_i(std::int64_t s) const { return grid_i_[s]; }
+  [[nodiscard]] int grid_j(std::int64_t s) const { return grid_j_[s]; }
+
+  /// Total mass of all active particles (kg). Equals density * W * H.
+  [[nodiscard]] double total_mass() const;
+  [[nodiscard]] double areal_density() const { return areal_density_; }
+
+  /// Recomputes masses, widths and rest lengths of the active elements from the current
+  /// active set and neighbour indices (used after AMRC changes them).
+  void update_reference_geometry();
+
+  // --- storage (public arrays: the kernels index them directly in hot loops) --------------
+  std::vector<std::int32_t> slot_of_grid;     ///< I*J, row-major (i, j) -> slot
+  std::vector<std::int64_t> tile_slot_begin;  ///< tiles+1: first slot of each tile
+  std::vector<std::int64_t> block_tile_begin; ///< blocks+1: first tile of each block
+  std::vector<std::uint8_t> flags;            ///< per slot: ParticleFlag bits
+  std::vector<double> mass;                   ///< per slot, kg (0 for ghosts and inactive)
+  std::vector<std::int32_t> next;             ///< per element id: next node along d, or -1
+  std::vector<std::int32_t> prev;             ///< per element id: previous node along d, or -1
+  std::vector<std::uint8_t> edge_active;      ///< per element id: edge (slot -> next) exists
+  std::vector<std::uint8_t> triple_active;    ///< per element id: triple (prev, slot, next) exists
+  std::vector<float> edge_rest;               ///< rest length L_e, m
+  std::vector<float> edge_width;              ///< width w_e of the strip the edge stands for, m
+  std::vector<float> triple_rest;             ///< rest spacing Lbar_t, m
+  std::vector<float> triple_width;            ///< width w_t, m
+
+ private:
+  int size_i_;
+  int size_j_;
+  int block_size_;
+  double spacing_[2];
+  double areal_density_;
+  std::vector<std::int32_t> grid_i_;
+  std::vector<std::int32_t> grid_j_;
+};
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,195 @@
+// Runs one element loop of a simulation step through the chosen scheduler, with per-tile
+// partial sums for deterministic reductions and optional per-thread work timing
+// (MODEL.md section 7).
+//
+// Every member is called by every thread of the step's parallel region (or by one thread
+// outside any region). Results of `reduce` are identical on all threads and for every
+// scheduler and thread count: partials are per tile and combined in tile order.
+#pragma once
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <vector>
+
+#include "kernels/active_lists.hpp"
+#include "kernels/cloth_mesh.hpp"
+#include "schedulers/loop_driver.hpp"
+
+namespace clothbench::kernels {
+
+/// How much of the loop timing is recorded.
+enum class Instrumentation {
+  off,     ///< nothing per loop
+  loops,   ///< per thread: time from loop entry to the end of its last chunk
+  chunks,  ///< per thread: summed duration of every chunk body
+};
+
+/// Per-thread timing of the parallel loops of a run (seconds).
+struct LoopTimes {
+  struct alignas(64) PerThread {
+    double work = 0.0;            ///< time inside loop bodies (see Instrumentation)
+    std::int64_t chunks = 0;      ///< chunks executed
+    double loop_work[2] = {0, 0}; ///< this loop's work, double-buffered by loop parity
+  };
+  std::vector<PerThread> threads;  ///< one per thread of the team
+  double loop_wall = 0.0;          ///< summed wall time of all loops (thread 0, entry to exit)
+  std::int64_t loops = 0;          ///< loop executions
+  double busiest_sum = 0.0;        ///< sum over loop executions of the busiest thread's work
+  double mean_sum = 0.0;           ///< sum over loop executions of the mean thread work
+  void resize(int thread_count) { threads.assign(static_cast<std::size_t>(thread_count), {}); }
+};
+
+/// No reduction: the accumulator of loops that only write element slots.
+struct NoReduction {};
+
+/// Seconds from a monotonic clock.
+inline double monotonic_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+/// The per-step view of mesh, lists, driver and timers. One object per thread.
+class LoopRunner {
+ public:
+  LoopRunner(schedulers::LoopDriver& driver, const ClothMesh& mesh, const ActiveLists* lists,
+             Instrumentation instrumentation, LoopTimes* times)
+      : driver_(driver), mesh_(mesh), lists_(lists), instrumentation_(instrumentation),
+        times_(times) {}
+
+  /// Calls body(id, acc) for every live element of `kind`; acc is a fresh Acc per tile and is
+  /// stored in partials[tile] when `partials` is not null (it has mesh.tile_count() entries).
+  template <class Acc, class Body>
+  void for_each(ElementKind kind, Acc* partials, Body&& body);
+
+  /// Same with no reduction.
+  template <class Body>
+  void for_each(ElementKind kind, Body&& body) {
+    for_each<NoReduction>(kind, nullptr,
+                          [&](std::int64_t id, NoReduction&) { body(id); });
+  }
+
+  /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
+  template <class Acc>
+  [[nodiscard]] Acc reduce(const std::vector<Acc>& partials) const {
+    Acc total{};
+    for (const Acc& p : partials) total += p;
+    return total;
+  }
+
+  [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
+  [[nodiscard]] schedulers::IterationSpace space() const { return driver_.space(); }
+
+ private:
+  template <class Acc, class Body>
+  void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Body& body) const {
+    Acc acc{};
+    const int per_slot = ids_per_slot(kind);
+    for (std::int64_t s = mesh_.tile_slot_begin[t]; s < mesh_.tile_slot_begin[t + 1]; ++s) {
+      for (int d = 0; d < per_slot; ++d) {
+        const std::int64_t id = per_slot * s + d;
+        if (element_is_live(mesh_, kind, id)) body(id, acc);
+      }
+    }
+    if (partials != nullptr) partials[t] = acc;
+  }
+
+  schedulers::LoopDriver& driver_;
+  const ClothMesh& mesh_;
+  const ActiveLists* lists_;
+  Instrumentation instrumentation_;
+  LoopTimes* times_;
+  std::int64_t loop_counter_ = 0;  // identical on all threads: they run the same loops
+};
+
+template <class Acc, class Body>
+void LoopRunner::for_each(ElementKind kind, Acc* partials, Body&& body) {
+  const int thread = omp_get_thread_num();
+  const bool timed = instrumentation_ != Instrumentation::off && times_ != nullptr;
+  const double entry = timed ? monotonic_seconds() : 0.0;
+  double work = 0.0;
+  double last_end = entry;
+  std::int64_t chunks = 0;
+
+  auto timed_call = [&](auto&& range_work) {
+    if (!timed) {
+      range_work();
+      return;
+    }
+    if (instrumentation_ == Instrumentation::chunks) {
+      const double start = monotonic_seconds();
+      range_work();
+      last_end = monotonic_seconds();
+      work += last_end - start;
+    } else {
+      range_work();
+      last_end = monotonic_seconds();
+    }
+    ++chunks;
+  };
+
+  if (driver_.space() == schedulers::IterationSpace::blocks || lists_ == nullptr) {
+    auto range = [&](std::int64_t b0, std::int64_t b1) {
+      timed_call([&] {
+        for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {
+          run_tile_blocks(kind, t, partials, body);
+        }
+      });
+    };
+    driver_.for_range(mesh_.block_count(), range);
+  } else {
+    const ElementList& list = lists_->of(kind);
+    const std::int64_t n = list.size();
+    const std::vector<std::int64_t>& begin = list.tile_begin;
+    auto tile_containing = [&](std::int64_t q) {
+      return static_cast<std::int64_t>(std::upper_bound(begin.begin(), begin.end(), q) -
+                                       begin.begin()) - 1;
+    };
+    // A scheduler's range of list positions is widened/narrowed to whole tiles: every tile
+    // belongs to the range holding its first entry, so tile partials never depend on the split.
+    auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
+    auto range = [&](std::int64_t q0, std::int64_t q1) {
+      const std::int64_t lo = snap(q0), hi = snap(q1);
+      if (lo >= hi) return;
+      timed_call([&] {
+        for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
+          if (begin[t + 1] == begin[t]) continue;
+          Acc acc{};
+          for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) body(list.entries[q], acc);
+          if (partials != nullptr) partials[t] = acc;
+        }
+      });
+    };
+    driver_.for_range(n, range);
+  }
+
+  if (timed) {
+    // for_range ended with a barrier, so every thread's entry for this loop's parity is final;
+    // no thread can write that entry again before the next loop's barrier.
+    const int parity = static_cast<int>(loop_counter_ & 1);
+    auto& mine = times_->threads[static_cast<std::size_t>(thread)];
+    const double this_loop = instrumentation_ == Instrumentation::chunks ? work : last_end - entry;
+    mine.work += this_loop;
+    mine.chunks += chunks;
+    mine.loop_work[parity] = this_loop;
+#pragma omp barrier
+    if (thread == 0) {
+      times_->loop_wall += monotonic_seconds() - entry;
+      ++times_->loops;
+      const int team = omp_get_num_threads();
+      double busiest = 0.0, sum = 0.0;
+      for (int k = 0; k < team; ++k) {
+        const double w = times_->threads[static_cast<std::size_t>(k)].loop_work[parity];
+        busiest = std::max(busiest, w);
+        sum += w;
+      }
+      times_->busiest_sum += busiest;
+      times_->mean_sum += sum / team;
+    }
+  }
+  ++loop_counter_;
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,110 @@
+// Element terms of the `potential` formulation (MODEL.md 4B): for each edge and triple the
+// return-mapped force and its potential, from positions given by an accessor so that the
+// analytic loops and the local numeric gradient share one definition.
+#pragma once
+
+#include "kernels/step_context.hpp"
+
+namespace clothbench::kernels {
+
+/// Edge e = 2*slot+d: energy w L Psi(eps); force density w t / l (N/m / m * m) for the gather.
+struct EdgeTerm {
+  double energy = 0.0;
+  double force_density = 0.0;  ///< w t / l: the gradient on b is force_density * (x_b - x_a)
+  double force = 0.0;          ///< t, N/m
+  double slope = 0.0;          ///< dt/deps, N/m
+  double strain = 0.0;
+  double length = 0.0;
+};
+
+template <class Positions>
+inline EdgeTerm edge_term(const StepContext& ctx, std::int64_t id, const Positions& x) {
+  const ClothMesh& mesh = ctx.mesh;
+  const std::int64_t a = element_slot(id), b = mesh.next[id];
+  const Eigen::Vector3d e = x(b) - x(a);
+  EdgeTerm term;
+  term.length = e.norm();
+  const double rest = mesh.edge_rest[id], width = mesh.edge_width[id];
+  term.strain = term.length / rest - 1.0;
+  const ReturnMapped r =
+      map_force(ctx.material.tensile[element_direction(id)], ctx.state.edge_force[id], term.strain);
+  term.energy = width * rest * r.potential;
+  term.force = r.force;
+  term.slope = r.slope;
+  term.force_density = term.length > 0.0 ? width * r.force / term.length : 0.0;
+  return term;
+}
+
+/// Triple t = 2*slot+d centred on slot: energy w Lbar Psi(kappa); gradient coefficients
+/// w M (A, Bc, C) of element_geometry.hpp.
+struct TripleTerm {
+  double energy = 0.0;
+  double coefficient[3] = {0.0, 0.0, 0.0};  ///< w M A, w M Bc, w M C
+  double moment = 0.0;                      ///< M, N
+  double slope = 0.0;                       ///< dM/dkappa, N m
+  double curvature = 0.0;                   ///< 1/m
+  TurningAngle<double> angle{};
+};
+
+template <class Positions>
+inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Positions& x) {
+  const ClothMesh& mesh = ctx.mesh;
+  const std::int64_t c = element_slot(id), a = mesh.prev[id], b = mesh.next[id];
+  const Eigen::Vector3d xc = x(c);
+  const Eigen::Vector3d e1 = xc - x(a), e2 = x(b) - xc;
+  TripleTerm term;
+  term.angle = turning_angle<double>(e1, e2);
+  const double rest = mesh.triple_rest[id], width = mesh.triple_width[id];
+  term.curvature = term.angle.theta / rest;
+  const ReturnMapped r = map_force(ctx.material.bending[element_direction(id)],
+                                   ctx.state.triple_moment[id], term.curvature);
+  term.energy = width * rest * r.potential;
+  term.moment = r.force;
+  term.slope = r.slope;
+  const double wm = width * r.force;
+  term.coefficient[0] = wm * term.angle.a;
+  term.coefficient[1] = wm * term.angle.bc;
+  term.coefficient[2] = wm * term.angle.c;
+  return term;
+}
+
+/// Gathers, for particle s, the elastic gradient from the scratch arrays written by the
+/// element loops: every edge and triple that touches s, in a fixed order.
+/// `x(slot)` gives positions; edge_scratch / triple_scratch as in ClothState.
+template <class Positions>
+inline Eigen::Vector3d gather_elastic_gradient(const ClothMesh& mesh, const ClothState& state,
+                                               std::int64_t s, const Positions& x) {
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d xs = x(s);
+  for (int d = 0; d < 2; ++d) {
+    const std::int64_t id = element_id(s, d);
+    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+    if (n >= 0) {
+      const Eigen::Vector3d xn = x(n);
+      if (mesh.edge_active[id]) g -= state.edge_scratch[id] * (xn - xs);
+      const std::int64_t tn = element_id(n, d);  // triple centred on the next node: s is its a
+      if (mesh.triple_active[tn] && mesh.prev[tn] == s) {
+        const double* k = &state.triple_scratch[3 * tn];
+        g += -k[0] * (xn - xs) + k[1] * (x(mesh.next[tn]) - xn);
+      }
+    }
+    if (p >= 0) {
+      const Eigen::Vector3d xp = x(p);
+      const std::int64_t ep = element_id(p, d);
+      if (mesh.edge_active[ep] && mesh.next[ep] == s) g += state.edge_scratch[ep] * (xs - xp);
+      const std::int64_t tp = ep;  // triple centred on the previous node: s is its b
+      if (mesh.triple_active[tp] && mesh.next[tp] == s) {
+        const double* k = &state.triple_scratch[3 * tp];
+        g += -k[1] * (xp - x(mesh.prev[tp])) + k[2] * (xs - xp);
+      }
+    }
+    if (mesh.triple_active[id]) {  // triple centred on s
+      const double* k = &state.triple_scratch[3 * id];
+      const Eigen::Vector3d e1 = xs - x(p), e2 = x(n) - xs;
+      g += (k[0] + k[1]) * e1 - (k[1] + k[2]) * e2;
+    }
+  }
+  return g;
+}
+
+}  // namespace clothbench::kernels

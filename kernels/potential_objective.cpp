@@ -1,0 +1,236 @@
+// The `potential` formulation's loops (see potential_objective.hpp). Loop order per
+// evaluation: edges, triples (write own scratch slots), particles (gather) — MODEL.md 7.
+#include "kernels/potential_objective.hpp"
+
+#include <Eigen/LU>
+
+#include "kernels/potential_elements.hpp"
+
+namespace clothbench::kernels {
+
+PotentialObjective::PotentialObjective(const StepContext& ctx)
+    : ctx_(ctx),
+      edge_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
+      triple_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
+      scalar_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
+      gather_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())) {}
+
+void PotentialObjective::begin_step(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    if (ctx_.is_free(s)) vec3(st.position, s) = vec3(st.target, s);
+  });
+  refresh_preconditioner(run);
+}
+
+Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s) const {
+  const ClothMesh& mesh = ctx_.mesh;
+  const ClothState& st = ctx_.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  const double dt = ctx_.config.time.step;
+  Eigen::Matrix3d h = Eigen::Matrix3d::Identity() * (mesh.mass[s] / (dt * dt));
+  auto add_edge = [&](std::int64_t id) {
+    const EdgeTerm e = edge_term(ctx_, id, x);
+    if (e.length <= 0.0) return;
+    const Eigen::Vector3d u = (x(mesh.next[id]) - x(element_slot(id))) / e.length;
+    const double w = mesh.edge_width[id];
+    const Eigen::Matrix3d uu = u * u.transpose();
+    h += w * (e.slope / mesh.edge_rest[id]) * uu +
+         w * std::max(e.force, 0.0) / e.length * (Eigen::Matrix3d::Identity() - uu);
+  };
+  auto add_triple = [&](std::int64_t id, int role) {  // role 0 = a, 1 = c, 2 = b
+    const TripleTerm t = triple_term(ctx_, id, x);
+    if (t.angle.degenerate || t.slope <= 0.0) return;
+    const std::int64_t c = element_slot(id);
+    const Eigen::Vector3d e1 = x(c) - x(mesh.prev[id]), e2 = x(mesh.next[id]) - x(c);
+    const Eigen::Vector3d ga = -t.angle.a * e1 + t.angle.bc * e2;
+    const Eigen::Vector3d gb = -t.angle.bc * e1 + t.angle.c * e2;
+    const Eigen::Vector3d grad = role == 0 ? ga : role == 2 ? gb : Eigen::Vector3d(-(ga + gb));
+    h += mesh.triple_width[id] * t.slope / mesh.triple_rest[id] * grad * grad.transpose();
+  };
+  for (int d = 0; d < 2; ++d) {
+    const std::int64_t id = element_id(s, d);
+    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+    if (mesh.edge_active[id]) add_edge(id);
+    if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      add_edge(element_id(p, d));
+    }
+    if (mesh.triple_active[id]) add_triple(id, 1);
+    if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
+      add_triple(element_id(n, d), 0);
+    }
+    if (p >= 0 && mesh.triple_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      add_triple(element_id(p, d), 2);
+    }
+  }
+  h += contact_penalty(ctx_, s, x(s)).stiffness;
+  return h;
+}
+
+void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  const bool block_jacobi = ctx_.config.solver.preconditioner;
+  // Without block Jacobi the unknowns are positions in units of the finest spacing h:
+  // P^-1 = h^2 I (MODEL.md 5, scaled unknowns).
+  const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+    if (ctx_.is_free(s)) {
+      inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s).inverse())
+                             : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
+    }
+    store_symmetric(st.preconditioner, s, inverse);
+  });
+}
+
+double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs) const {
+  const ClothMesh& mesh = ctx_.mesh;
+  const ClothState& st = ctx_.state;
+  auto x = [&](std::int64_t k) -> Eigen::Vector3d {
+    return k == s ? xs : Eigen::Vector3d(vec3(st.position, k));
+  };
+  const double dt = ctx_.config.time.step, m = mesh.mass[s];
+  double energy = 0.5 * m / (dt * dt) * (xs - vec3(st.target, s)).squaredNorm() -
+                  m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
+                  contact_penalty(ctx_, s, xs).energy;
+  for (int d = 0; d < 2; ++d) {
+    const std::int64_t id = element_id(s, d);
+    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+    if (mesh.edge_active[id]) energy += edge_term(ctx_, id, x).energy;
+    if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      energy += edge_term(ctx_, element_id(p, d), x).energy;
+    }
+    if (mesh.triple_active[id]) energy += triple_term(ctx_, id, x).energy;
+    if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
+      energy += triple_term(ctx_, element_id(n, d), x).energy;
+    }
+    if (p >= 0 && mesh.triple_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      energy += triple_term(ctx_, element_id(p, d), x).energy;
+    }
+  }
+  return energy;
+}
+
+Eigen::Vector3d PotentialObjective::numeric_gradient(std::int64_t s) const {
+  const double h = ctx_.config.solver.numeric_step *
+                   std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
+  const Eigen::Vector3d xs = vec3(ctx_.state.position, s);
+  Eigen::Vector3d g;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d plus = xs, minus = xs;
+    plus[k] += h;
+    minus[k] -= h;
+    g[k] = (local_energy(s, plus) - local_energy(s, minus)) / (plus[k] - minus[k]);
+  }
+  return g;
+}
+
+Evaluation PotentialObjective::evaluate(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  const ClothMesh& mesh = ctx_.mesh;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  const bool numeric = ctx_.config.solver.gradient == GradientMode::numeric;
+
+  run.for_each<ScalarSum>(ElementKind::edges, edge_partials_.data(),
+                          [&](std::int64_t id, ScalarSum& acc) {
+                            const EdgeTerm e = edge_term(ctx_, id, x);
+                            st.edge_scratch[id] = e.force_density;
+                            acc.value += e.energy;
+                          });
+  run.for_each<ScalarSum>(ElementKind::triples, triple_partials_.data(),
+                          [&](std::int64_t id, ScalarSum& acc) {
+                            const TripleTerm t = triple_term(ctx_, id, x);
+                            double* k = &st.triple_scratch[3 * id];
+                            k[0] = t.coefficient[0];
+                            k[1] = t.coefficient[1];
+                            k[2] = t.coefficient[2];
+                            acc.value += t.energy;
+                          });
+  const double dt = ctx_.config.time.step;
+  const double g_ref = ctx_.gravity_reference();
+  const Eigen::Vector3d gravity = ctx_.config.time.gravity;
+  run.for_each<GatherSums>(
+      ElementKind::particles, gather_partials_.data(), [&](std::int64_t s, GatherSums& acc) {
+        auto g = vec3(st.gradient, s);
+        if (!ctx_.is_free(s)) {
+          g.setZero();
+          return;
+        }
+        const double m = mesh.mass[s];
+        const Eigen::Vector3d xs = x(s);
+        const Eigen::Vector3d offset = xs - vec3(st.target, s);
+        const ContactPenalty contact = contact_penalty(ctx_, s, xs);
+        acc.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
+                      m * gravity.dot(xs - vec3(st.step_start, s)) + contact.energy;
+        if (numeric) {
+          g = numeric_gradient(s);
+        } else {
+          g = m / (dt * dt) * offset - m * gravity + contact.gradient +
+              gather_elastic_gradient(mesh, st, s, x);
+        }
+        st.contact_force[s] = contact.support;
+        const Eigen::Vector3d z = apply_symmetric(st.preconditioner, s, g);
+        const double ratio = g.norm() / (m * g_ref);
+        acc.residual_sq += ratio * ratio;
+        acc.residual_max = std::max(acc.residual_max, ratio);
+        acc.slope += g.dot(vec3(st.direction, s));
+        acc.grad_dot_z += g.dot(z);
+        acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
+        acc.free_particles += 1;
+      });
+  const double edges = run.reduce(edge_partials_).value;
+  const double triples = run.reduce(triple_partials_).value;
+  const GatherSums p = run.reduce(gather_partials_);
+  Evaluation e;
+  e.value = p.energy + edges + triples;
+  e.slope = p.slope;
+  e.grad_dot_z = p.grad_dot_z;
+  e.grad_old_dot_z = p.grad_old_dot_z;
+  e.residual_sq = p.residual_sq;
+  e.residual_max = p.residual_max;
+  e.cost = p.residual_sq;
+  e.free_particles = p.free_particles;
+  return e;
+}
+
+double PotentialObjective::update_direction(LoopRunner& run, double beta) {
+  ClothState& st = ctx_.state;
+  run.for_each<ScalarSum>(ElementKind::particles, scalar_partials_.data(),
+                          [&](std::int64_t s, ScalarSum& acc) {
+                            const Eigen::Vector3d g = vec3(st.gradient, s);
+                            auto dir = vec3(st.direction, s);
+                            dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
+                            vec3(st.gradient_old, s) = g;
+                            vec3(st.base, s) = vec3(st.position, s);
+                            acc.value += dir.dot(g);
+                          });
+  return run.reduce(scalar_partials_).value;
+}
+
+void PotentialObjective::move(LoopRunner& run, double alpha) {
+  ClothState& st = ctx_.state;
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    vec3(st.position, s) = vec3(st.base, s) + alpha * vec3(st.direction, s);
+  });
+}
+
+void PotentialObjective::end_step(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  // Each element term reads only its own previous force, so it can be replaced in place.
+  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+    st.edge_force[id] = edge_term(ctx_, id, x).force;
+  });
+  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+    st.triple_moment[id] = triple_term(ctx_, id, x).moment;
+  });
+  const double keep = 1.0 - ctx_.config.time.damping;
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    const Eigen::Vector3d xs = x(s);
+    vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
+    vec3(st.step_start, s) = xs;
+    st.contact_force[s] = contact_penalty(ctx_, s, xs).support;
+  });
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,192 @@
+// Simulation set-up, stepping and verification figures (see simulation.hpp).
+#include "kernels/simulation.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <cstdlib>
+
+#include "kernels/potential_objective.hpp"
+#include "kernels/step_context.hpp"
+
+namespace clothbench::kernels {
+
+Simulation::Simulation(const SimulationConfig& config)
+    : config_(config),
+      material_(FabricMaterial::from_kes(config.fabric)),
+      mesh_(config.cloth, material_.areal_density) {
+  for (const ObstacleConfig& o : config_.obstacles) obstacles_.emplace_back(o);
+  state_.allocate(mesh_.slot_count());
+  place_initial_positions();
+  const StepContext ctx{mesh_, material_, obstacles_, config_, state_};
+  objective_ = std::make_unique<PotentialObjective>(ctx);
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::place_initial_positions() {
+  const ClothConfig& c = config_.cloth;
+  const Eigen::Vector3d normal = c.axis_i.cross(c.axis_j).normalized();
+  std::mt19937_64 rng(c.initial_seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double scale = 1.0 + c.initial_stretch;
+  for (int i = 0; i < mesh_.size_i(); ++i) {
+    for (int j = 0; j < mesh_.size_j(); ++j) {
+      const std::int64_t s = mesh_.slot(i, j);
+      Eigen::Vector3d x = c.origin + scale * (mesh_.rest_coordinate(0, i) * c.axis_i +
+                                              mesh_.rest_coordinate(1, j) * c.axis_j);
+      const double bump = unit(rng);  // drawn for every particle: independent of the layout
+      if (c.initial_crumple > 0.0) x += c.initial_crumple * bump * normal;
+      vec3(state_.position, s) = x;
+      vec3(state_.step_start, s) = x;
+      vec3(state_.target, s) = x;  // starts at rest
+      vec3(state_.base, s) = x;
+    }
+  }
+}
+
+StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation instrumentation,
+                            LoopTimes* times) {
+  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) {
+    lists_.rebuild(mesh_);
+    lists_built_ = true;
+  }
+  const ActiveLists* lists = lists_built_ ? &lists_ : nullptr;
+  MinimiserSettings settings;
+  settings.tolerance = config_.solver.tolerance;
+  settings.max_iterations = config_.solver.max_iterations;
+  if (const char* e = std::getenv("CB_REFRESH")) settings.refresh_every = std::atoi(e);
+  if (const char* e = std::getenv("CB_C2")) settings.curvature = std::atof(e);
+  StepReport report;
+  const double start = monotonic_seconds();
+#pragma omp parallel
+  {
+    LoopRunner run(driver, mesh_, lists, instrumentation, times);
+    double first_alpha = first_alpha_;
+#pragma omp barrier
+    const MinimiserReport r = minimise_step(*objective_, run, settings, first_alpha);
+    if (omp_get_thread_num() == 0) {
+      report.minimiser = r;
+      first_alpha_ = first_alpha;
+    }
+  }
+  report.seconds = monotonic_seconds() - start;
+  report.step = ++steps_done_;
+  report.active_elements = active_elements();
+  return report;
+}
+
+Evaluation Simulation::evaluate(schedulers::LoopDriver& driver) {
+  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) {
+    lists_.rebuild(mesh_);
+    lists_built_ = true;
+  }
+  Evaluation result;
+#pragma omp parallel
+  {
+    LoopRunner run(driver, mesh_, lists_built_ ? &lists_ : nullptr, Instrumentation::off, nullptr);
+    const Evaluation e = objective_->evaluate(run);
+    if (omp_get_thread_num() == 0) result = e;
+  }
+  return result;
+}
+
+std::int64_t Simulation::active_elements() const {
+  std::int64_t n = 0;
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
+    n += (mesh_.flags[s] & kParticleActive) ? 1 : 0;
+    n += mesh_.edge_active[2 * s] + mesh_.edge_active[2 * s + 1];
+    n += mesh_.triple_active[2 * s] + mesh_.triple_active[2 * s + 1];
+  }
+  return n;
+}
+
+std::vector<std::array<std::int32_t, 4>> Simulation::surface_quads() const {
+  std::vector<std::array<std::int32_t, 4>> quads;
+  quads.reserve(static_cast<std::size_t>(mesh_.size_i() - 1) * (mesh_.size_j() - 1));
+  for (int i = 0; i + 1 < mesh_.size_i(); ++i) {
+    for (int j = 0; j + 1 < mesh_.size_j(); ++j) {
+      quads.push_back({mesh_.slot(i, j), mesh_.slot(i + 1, j), mesh_.slot(i + 1, j + 1),
+                       mesh_.slot(i, j + 1)});
+    }
+  }
+  return quads;
+}
+
+StateDiagnostics Simulation::diagnostics() const {
+  StateDiagnostics d;
+  const StepContext ctx{mesh_, material_, obstacles_, config_, const_cast<ClothState&>(state_)};
+  d.total_mass = mesh_.total_mass();
+  d.weight = d.total_mass * config_.time.gravity.norm();
+  d.min_particle_distance = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d down = config_.time.gravity.norm() > 0.0
+                                   ? Eigen::Vector3d(config_.time.gravity.normalized())
+                                   : Eigen::Vector3d(0.0, 0.0, -1.0);
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
+    if (!(mesh_.flags[s] & kParticleActive)) continue;
+    ++d.active_particles;
+    const Eigen::Vector3d x = vec3(state_.position, s);
+    if (!x.allFinite()) d.finite = false;
+    for (const Obstacle& o : obstacles_) {
+      d.min_particle_distance = std::min(d.min_particle_distance, o.signed_distance(x));
+    }
+    if (ctx.is_free(s)) d.contact_force -= contact_penalty(ctx, s, x).gradient;
+    for (int k = 0; k < 2; ++k) {
+      const std::int64_t id = element_id(s, k);
+      if (mesh_.edge_active[id]) {
+        ++d.active_edges;
+        if (!std::isfinite(state_.edge_force[id])) d.finite = false;
+        const double l = (vec3(state_.position, mesh_.next[id]) - x).norm();
+        d.max_strain = std::max(d.max_strain, l / mesh_.edge_rest[id] - 1.0);
+      }
+      if (mesh_.triple_active[id]) {
+        ++d.active_triples;
+        if (!std::isfinite(state_.triple_moment[id])) d.finite = false;
+      }
+    }
+  }
+  if (obstacles_.empty()) d.min_particle_distance = 0.0;
+  d.contact_support = -d.contact_force.dot(down);
+  // Interpolated surface: bilinear patches sampled at corners, edge midpoints and centres.
+  constexpr int kSamples = 4;
+  for (const auto& q : surface_quads()) {
+    const Eigen::Vector3d p00 = vec3(state_.position, q[0]), p10 = vec3(state_.position, q[1]),
+                          p11 = vec3(state_.position, q[2]), p01 = vec3(state_.position, q[3]);
+    for (int a = 0; a <= kSamples; ++a) {
+      for (int b = 0; b <= kSamples; ++b) {
+        const double u = static_cast<double>(a) / kSamples, v = static_cast<double>(b) / kSamples;
+        const Eigen::Vector3d p =
+            (1 - u) * (1 - v) * p00 + u * (1 - v) * p10 + u * v * p11 + (1 - u) * v * p01;
+        for (const Obstacle& o : obstacles_) {
+          d.max_surface_penetration = std::max(d.max_surface_penetration, -o.signed_distance(p));
+        }
+      }
+    }
+  }
+  return d;
+}
+
+std::size_t Simulation::memory_bytes() const {
+  std::size_t b = state_.memory_bytes() + lists_.memory_bytes();
+  b += mesh_.slot_of_grid.capacity() * 4 + mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
+  b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
+  b += mesh_.edge_active.capacity() + mesh_.triple_active.capacity();
+  b += (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity() + mesh_.triple_rest.capacity() +
+        mesh_.triple_width.capacity()) * 4;
+  return b;
+}
+
+std::size_t estimate_memory_bytes(const SimulationConfig& config) {
+  const auto n = static_cast<std::size_t>(config.cloth.particles_i) *
+                 static_cast<std::size_t>(config.cloth.particles_j);
+  // Per slot: state 7 vectors x 24 B + 24 B preconditioner + 8 B contact; per element id
+  // (2 per slot) 5 doubles of forces and scratch; mesh: 4 B grid map, 8 B grid coordinates,
+  // 1 B flags, 8 B mass, per id 8 B neighbours, 2 B flags, 16 B geometry; lists 20 B.
+  const std::size_t per_slot = 7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 20;
+  return n * per_slot + (16u << 20);
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,92 @@
+// One cloth simulation: builds mesh, material, obstacles and state from a SimulationConfig
+// and advances it step by step through a scheduler (MODEL.md sections 1-5 and 7).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "kernels/active_lists.hpp"
+#include "kernels/cg_minimiser.hpp"
+#include "kernels/cloth_mesh.hpp"
+#include "kernels/cloth_state.hpp"
+#include "kernels/kes_material.hpp"
+#include "kernels/loop_runner.hpp"
+#include "kernels/obstacle.hpp"
+#include "kernels/simulation_config.hpp"
+#include "kernels/step_objective.hpp"
+
+namespace clothbench::kernels {
+
+/// What one step did.
+struct StepReport {
+  int step = 0;                 ///< 1-based index of the completed step
+  MinimiserReport minimiser;    ///< iterations, evaluations, costs, stop reason
+  double seconds = 0.0;         ///< wall time of the step
+  std::int64_t active_elements = 0;  ///< active particles + edges + triples
+};
+
+/// Verification figures of the current state.
+struct StateDiagnostics {
+  bool finite = true;                    ///< every position and force is finite
+  double total_mass = 0.0;               ///< kg, active particles
+  double weight = 0.0;                   ///< N, total mass * |g|
+  Eigen::Vector3d contact_force = Eigen::Vector3d::Zero();  ///< summed penalty force, N
+  double contact_support = 0.0;          ///< contact force along -g, N
+  double min_particle_distance = 0.0;    ///< min signed distance of active particles to obstacles, m
+  double max_surface_penetration = 0.0;  ///< max depth of the interpolated surface inside an obstacle, m
+  double max_strain = 0.0;               ///< max edge strain
+  std::int64_t active_particles = 0, active_edges = 0, active_triples = 0;
+};
+
+class Simulation {
+ public:
+  explicit Simulation(const SimulationConfig& config);
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+  ~Simulation();
+
+  /// Advances one step. Runs one OpenMP parallel region with the current thread count;
+  /// `times` (may be null) must hold one entry per thread of that team.
+  StepReport step(schedulers::LoopDriver& driver, Instrumentation instrumentation = Instrumentation::off,
+                  LoopTimes* times = nullptr);
+
+  /// Evaluates the objective and its gradient at the current unknowns (no step taken).
+  /// Used by the gradient tests; the gradient is then in state().gradient.
+  Evaluation evaluate(schedulers::LoopDriver& driver);
+
+  [[nodiscard]] StateDiagnostics diagnostics() const;
+  [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
+  [[nodiscard]] const ClothState& state() const { return state_; }
+  [[nodiscard]] ClothState& state() { return state_; }
+  [[nodiscard]] const SimulationConfig& config() const { return config_; }
+  [[nodiscard]] const FabricMaterial& material() const { return material_; }
+  [[nodiscard]] const std::vector<Obstacle>& obstacles() const { return obstacles_; }
+  [[nodiscard]] int steps_done() const { return steps_done_; }
+  /// Quads of the current mesh as corner slots (i,j), (i+1,j), (i+1,j+1), (i,j+1) order.
+  [[nodiscard]] std::vector<std::array<std::int32_t, 4>> surface_quads() const;
+  /// Bytes held by mesh, state and lists.
+  [[nodiscard]] std::size_t memory_bytes() const;
+  /// Active particles + edges + triples.
+  [[nodiscard]] std::int64_t active_elements() const;
+
+ private:
+  void place_initial_positions();
+
+  SimulationConfig config_;
+  FabricMaterial material_;
+  ClothMesh mesh_;
+  std::vector<Obstacle> obstacles_;
+  ClothState state_;
+  ActiveLists lists_;
+  bool lists_built_ = false;
+  std::unique_ptr<StepObjective> objective_;
+  double first_alpha_ = 1.0;
+  int steps_done_ = 0;
+};
+
+/// Upper estimate of the memory a simulation of `config` needs (bytes), before allocating.
+std::size_t estimate_memory_bytes(const SimulationConfig& config);
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,120 @@
+// Everything the kernel needs to set up and run one simulation, in SI units.
+// Plain data: the harness fills it from a scene file; the kernel validates nothing here
+// that the scene loader has not already checked (see harness/scene).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "kernels/kes_parameters.hpp"
+
+namespace clothbench::kernels {
+
+/// Which minimisation problem one implicit step solves (MODEL.md section 4).
+enum class Formulation {
+  potential,  ///< positions only; forces by return mapping; incremental potential (default)
+  violation,  ///< the paper's: positions and forces as unknowns, E = Cn En + Cs Es + Cb Eb
+};
+
+/// How the gradient of the step cost is computed (MODEL.md section 5).
+enum class GradientMode {
+  analytic,  ///< exact chain rule (fast path)
+  numeric,   ///< central differences of each unknown's local cost, as the paper did
+};
+
+/// Analytic obstacle kinds with signed distance and normal.
+enum class ObstacleKind { plane, box, sphere, cylinder };
+
+/// One rigid obstacle. Which fields matter depends on `kind`:
+/// plane: `center` (a point on it) and `normal`; box: `center`, `half_extents` (axis aligned);
+/// sphere: `center`, `radius`; cylinder: `center`, `axis` (unit), `radius`, `half_length`
+/// (capped at both ends).
+struct ObstacleConfig {
+  ObstacleKind kind = ObstacleKind::plane;
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< m
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< plane normal (unit)
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.1);  ///< m
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< cylinder axis (unit)
+  double radius = 0.1;       ///< m
+  double half_length = 0.1;  ///< m
+};
+
+/// The cloth sheet: an I x J particle grid, initially flat in the plane spanned by
+/// `axis_i` and `axis_j` through `origin` (particle (0,0)). MODEL.md section 1.
+struct ClothConfig {
+  int particles_i = 101;  ///< I, particles along the warp
+  int particles_j = 101;  ///< J, particles along the weft
+  double size_i = 1.0;    ///< W, m
+  double size_j = 1.0;    ///< H, m
+  Eigen::Vector3d origin = Eigen::Vector3d(-0.5, -0.5, 0.0);  ///< m
+  Eigen::Vector3d axis_i = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d axis_j = Eigen::Vector3d::UnitY();
+  int block_size = 50;  ///< B: storage block edge, particles (paper Fig. 7)
+  /// Pinned particles as (i, j) grid coordinates; they never move.
+  std::vector<std::pair<int, int>> pinned;
+  /// Initial strain applied uniformly in the plane (0.2 = 20 % stretched).
+  double initial_stretch = 0.0;
+  /// Amplitude (m) of a reproducible random out-of-plane perturbation; 0 = flat.
+  double initial_crumple = 0.0;
+  unsigned initial_seed = 1;
+};
+
+/// Time integration of MODEL.md section 4: x~ = x^n + (1 - damping)(x^n - x^(n-1)).
+struct TimeConfig {
+  double step = 0.01;     ///< dt, s
+  double damping = 0.0;   ///< c_damp in [0, 1)
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.80665);  ///< m / s^2
+};
+
+/// Contact with obstacles: active within `distance` of a surface.
+struct ContactConfig {
+  double distance = 0.002;  ///< d, m (also the layer the interpolated surface must keep)
+  /// Penalty stiffness as a multiple of the particle's weight per contact distance:
+  /// k_i = stiffness * m_i |g| / d.
+  double stiffness = 1.0e4;
+};
+
+/// Nonlinear conjugate-gradient minimisation of one step (MODEL.md section 5).
+struct SolverConfig {
+  Formulation formulation = Formulation::potential;
+  GradientMode gradient = GradientMode::analytic;
+  bool preconditioner = true;  ///< per-particle 3x3 block Jacobi
+  /// Stop when the RMS normalised residual sqrt(En / particles) is below this.
+  double tolerance = 1.0e-3;
+  int max_iterations = 200;
+  /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
+  double numeric_step = 1.0e-6;
+  /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.
+  double weight_newton = 1.0;
+  double weight_stretch = 1.0;
+  double weight_bend = 1.0;
+  double weight_contact = 1.0;
+  /// s_ref of Es as a multiple of Fm (MODEL.md 4A); 0 selects m g / h per unit width.
+  double stretch_reference_fm = 1.0e-3;
+  /// Wall-clock budget for minimisation of the whole run, s (0 = none; paper's 500 s mode).
+  double time_budget = 0.0;
+};
+
+/// Adaptive mesh refinement and coarsening (MODEL.md section 6); parsed now, used by AMRC.
+struct AmrcConfig {
+  bool enabled = false;
+  int levels = 0;          ///< L: the coarsest level keeps every 2^L-th grid line
+  int check_every = 3;     ///< steps between criterion checks (paper: 3)
+  double refine_threshold = 0.2;   ///< refine where a triple's turning angle (rad) exceeds it
+  double coarsen_threshold = 0.05; ///< coarsen where all turning angles stay below it
+};
+
+/// One simulation: cloth, fabric, obstacles, time step, contact, solver, AMRC.
+struct SimulationConfig {
+  ClothConfig cloth;
+  KesParameters fabric;
+  std::string fabric_name = "custom";
+  std::vector<ObstacleConfig> obstacles;
+  TimeConfig time;
+  ContactConfig contact;
+  SolverConfig solver;
+  AmrcConfig amrc;
+};
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,90 @@
+// What the step objectives share: mesh, material, obstacles, configuration and state, plus
+// the per-particle physics both formulations use (inertia, contact penalty, preconditioner).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
+
+#include "kernels/cloth_mesh.hpp"
+#include "kernels/cloth_state.hpp"
+#include "kernels/element_geometry.hpp"
+#include "kernels/kes_material.hpp"
+#include "kernels/obstacle.hpp"
+#include "kernels/simulation_config.hpp"
+
+namespace clothbench::kernels {
+
+/// References to everything one step reads and writes.
+struct StepContext {
+  const ClothMesh& mesh;
+  const FabricMaterial& material;
+  const std::vector<Obstacle>& obstacles;
+  const SimulationConfig& config;
+  ClothState& state;
+
+  /// |g| used to normalise residuals and scale the contact stiffness (m/s^2).
+  [[nodiscard]] double gravity_reference() const {
+    const double g = config.time.gravity.norm();
+    return g > 0.0 ? g : 9.80665;
+  }
+  /// Penalty stiffness of particle s (N/m): stiffness * m |g| / d.
+  [[nodiscard]] double contact_stiffness(std::int64_t s) const {
+    return config.contact.stiffness * mesh.mass[s] * gravity_reference() / config.contact.distance;
+  }
+  [[nodiscard]] bool is_free(std::int64_t s) const {
+    return (mesh.flags[s] & (kParticleActive | kParticlePinned)) == kParticleActive;
+  }
+};
+
+/// Return mapping with breakpoints computed from the previous force (MODEL.md 4B).
+template <class Band>
+inline ReturnMapped map_force(const Band& band, double previous, double strain) {
+  return return_map(band, previous, band_breakpoints(band, previous), strain);
+}
+
+/// Contact penalty of one particle against all obstacles: adds energy, gradient, support.
+struct ContactPenalty {
+  double energy = 0.0;
+  Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+  double support = 0.0;                         ///< summed normal force (N)
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  ///< sum k n n^T (preconditioner)
+};
+inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
+                                      const Eigen::Vector3d& x) {
+  ContactPenalty c;
+  const double d = ctx.config.contact.distance;
+  for (const Obstacle& obstacle : ctx.obstacles) {
+    Eigen::Vector3d n;
+    const double phi = obstacle.signed_distance(x, n);
+    if (phi < d) {
+      const double k = ctx.contact_stiffness(s);
+      const double depth = d - phi;
+      c.energy += 0.5 * k * depth * depth;
+      c.gradient -= k * depth * n;
+      c.support += k * depth;
+      c.stiffness += k * n * n.transpose();
+    }
+  }
+  return c;
+}
+
+/// Stores the inverse of a symmetric 3x3 block as 6 floats (xx xy xz yy yz zz).
+inline void store_symmetric(std::vector<float>& out, std::int64_t s, const Eigen::Matrix3d& m) {
+  float* p = out.data() + 6 * s;
+  p[0] = static_cast<float>(m(0, 0));
+  p[1] = static_cast<float>(m(0, 1));
+  p[2] = static_cast<float>(m(0, 2));
+  p[3] = static_cast<float>(m(1, 1));
+  p[4] = static_cast<float>(m(1, 2));
+  p[5] = static_cast<float>(m(2, 2));
+}
+/// z = P^-1 g with the stored symmetric block of slot s.
+inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_t s,
+                                       const Eigen::Vector3d& g) {
+  const float* p = in.data() + 6 * s;
+  return {p[0] * g.x() + p[1] * g.y() + p[2] * g.z(), p[1] * g.x() + p[3] * g.y() + p[4] * g.z(),
+          p[2] * g.x() + p[4] * g.y() + p[5] * g.z()};
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,75 @@
+// The minimisation problem of one implicit step, as seen by the CG minimiser
+// (MODEL.md sections 4-5). Two implementations: the `potential` and the `violation`
+// formulation. Every member is called by every thread of the step's parallel region and
+// returns the same value on every thread.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+
+#include "kernels/loop_runner.hpp"
+
+namespace clothbench::kernels {
+
+/// Scalars of one evaluation of the objective at the current unknowns.
+struct Evaluation {
+  double value = 0.0;           ///< objective minimised (Phi, or E for violation), J or 1
+  double slope = 0.0;           ///< gradient . direction
+  double grad_dot_z = 0.0;      ///< g . P^-1 g
+  double grad_old_dot_z = 0.0;  ///< g_old . P^-1 g (Polak-Ribiere)
+  double cost = 0.0;            ///< reported cost E (En for potential)
+  double residual_sq = 0.0;     ///< En = sum |r_i|^2 / (m_i |g|)^2 over free particles
+  double residual_max = 0.0;    ///< max |r_i| / (m_i |g|)
+  std::int64_t free_particles = 0;  ///< particles that are unknowns
+};
+
+/// Per-tile sums of the particle gather loop.
+struct GatherSums {
+  double energy = 0.0;
+  double residual_sq = 0.0;
+  double residual_max = 0.0;
+  double slope = 0.0;
+  double grad_dot_z = 0.0;
+  double grad_old_dot_z = 0.0;
+  std::int64_t free_particles = 0;
+  GatherSums& operator+=(const GatherSums& o) {
+    energy += o.energy;
+    residual_sq += o.residual_sq;
+    residual_max = std::max(residual_max, o.residual_max);
+    slope += o.slope;
+    grad_dot_z += o.grad_dot_z;
+    grad_old_dot_z += o.grad_old_dot_z;
+    free_particles += o.free_particles;
+    return *this;
+  }
+};
+
+/// Per-tile sum of one scalar (energies, dot products).
+struct ScalarSum {
+  double value = 0.0;
+  ScalarSum& operator+=(const ScalarSum& o) {
+    value += o.value;
+    return *this;
+  }
+};
+
+/// One step's minimisation problem.
+class StepObjective {
+ public:
+  virtual ~StepObjective() = default;
+  /// Sets the initial guess of the step and builds the preconditioner.
+  virtual void begin_step(LoopRunner& run) = 0;
+  /// Rebuilds the preconditioner at the current unknowns.
+  virtual void refresh_preconditioner(LoopRunner& run) = 0;
+  /// Value, gradient (stored) and the CG scalars at the current unknowns.
+  virtual Evaluation evaluate(LoopRunner& run) = 0;
+  /// direction = -P^-1 g + beta direction; gradient_old = g; base = unknowns.
+  /// Returns the new direction . g.
+  virtual double update_direction(LoopRunner& run, double beta) = 0;
+  /// unknowns = base + alpha direction.
+  virtual void move(LoopRunner& run, double alpha) = 0;
+  /// Stores the step's forces (the hysteresis state) and advances the position history.
+  virtual void end_step(LoopRunner& run) = 0;
+};
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,101 @@
+// Machine context: every documented key is present with a sane type and value.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cstdlib>
+#include <ctime>
+#include <iomanip>
+#include <sstream>
+
+#include "harness/machine/machine_context.hpp"
+
+namespace {
+
+using clothbench::harness::machine_context;
+using nlohmann::json;
+
+TEST(MachineContext, TopologyIsSane) {
+  const json c = machine_context();
+  const json& cpu = c.at("cpu");
+  EXPECT_TRUE(cpu.at("model").is_string());
+  EXPECT_FALSE(cpu.at("model").get<std::string>().empty());
+  EXPECT_GE(cpu.at("packages").get<int>(), 1);
+  EXPECT_GE(cpu.at("cores").get<int>(), cpu.at("packages").get<int>());
+  EXPECT_GE(cpu.at("pus").get<int>(), cpu.at("cores").get<int>());
+  EXPECT_GE(cpu.at("numa_nodes").get<int>(), 1);
+  for (const char* level : {"L1d", "L2", "L3"}) {
+    const json& cache = cpu.at("caches").at(level);
+    EXPECT_TRUE(cache.at("size_bytes").is_number_unsigned()) << level;
+    EXPECT_GE(cache.at("count").get<int>(), 0) << level;
+    EXPECT_EQ(cache.at("count").get<int>() == 0, cache.at("size_bytes").get<std::uint64_t>() == 0)
+        << level;
+  }
+  EXPECT_TRUE(cpu.at("hwloc_api_version").is_string());
+  EXPECT_EQ(cpu.at("pus").get<int>(), clothbench::harness::hardware_threads());
+  EXPECT_GT(c.at("memory").at("total_bytes").get<std::uint64_t>(), 0u);
+  EXPECT_EQ(c.at("memory").at("total_bytes").get<std::uint64_t>(),
+            clothbench::harness::total_memory_bytes());
+}
+
+TEST(MachineContext, SystemBuildAndDate) {
+  const json c = machine_context();
+  EXPECT_EQ(c.at("schema_version").get<int>(), clothbench::harness::kMachineContextSchemaVersion);
+  EXPECT_FALSE(c.at("hostname").get<std::string>().empty());
+  for (const char* key : {"sysname", "release", "version", "machine"})
+    EXPECT_TRUE(c.at("os").at(key).is_string());
+  EXPECT_EQ(c.at("os").at("sysname").get<std::string>(), "Linux");
+  EXPECT_TRUE(c.at("load_average").is_array());
+  const std::string id = c.at("compiler").at("id").get<std::string>();
+  EXPECT_THAT(id, testing::AnyOf("gcc", "clang"));
+  EXPECT_THAT(c.at("compiler").at("version").get<std::string>(),
+              testing::MatchesRegex("[0-9]+\\.[0-9]+\\.[0-9]+"));
+  EXPECT_FALSE(c.at("build").at("type").get<std::string>().empty());
+  EXPECT_TRUE(c.at("build").at("flags").is_string());
+  EXPECT_FALSE(c.at("build").at("git_revision").get<std::string>().empty());
+
+  const std::string date = c.at("date_utc").get<std::string>();
+  EXPECT_THAT(date,
+              testing::MatchesRegex("[0-9]{4}-[0-9]{2}-[0-9]{2}T[0-9]{2}:[0-9]{2}:[0-9]{2}Z"));
+  std::tm parsed{};
+  std::istringstream in(date);
+  in >> std::get_time(&parsed, "%Y-%m-%dT%H:%M:%SZ");
+  ASSERT_FALSE(in.fail()) << date;
+  const std::time_t then = timegm(&parsed);
+  EXPECT_LE(std::abs(std::difftime(std::time(nullptr), then)), 300.0) << date;
+}
+
+TEST(MachineContext, OpenMpRuntimeAndSettings) {
+  ASSERT_EQ(setenv("OMP_SCHEDULE", "monotonic:dynamic,7", 1), 0);
+  ASSERT_EQ(setenv("GOMP_CLOTHBENCH_TEST", "1", 1), 0);
+  omp_set_schedule(static_cast<omp_sched_t>(omp_sched_dynamic | omp_sched_monotonic), 7);
+  const json c = machine_context();
+  const json& omp = c.at("openmp");
+  EXPECT_GE(omp.at("version").get<int>(), 201107);  // OpenMP 3.1 or later
+  EXPECT_THAT(omp.at("runtime").at("name").get<std::string>(),
+              testing::AnyOf("libgomp", "libomp", "libiomp5"));
+  EXPECT_FALSE(omp.at("runtime").at("path").get<std::string>().empty());
+  EXPECT_EQ(omp.at("max_threads").get<int>(), omp_get_max_threads());
+  EXPECT_EQ(omp.at("num_procs").get<int>(), omp_get_num_procs());
+  EXPECT_TRUE(omp.at("dynamic").is_boolean());
+  EXPECT_TRUE(omp.at("proc_bind").is_string());
+  EXPECT_EQ(omp.at("schedule").at("kind").get<std::string>(), "dynamic");
+  EXPECT_EQ(omp.at("schedule").at("chunk").get<int>(), 7);
+  EXPECT_TRUE(omp.at("schedule").at("monotonic").get<bool>());
+  EXPECT_EQ(omp.at("environment").at("OMP_SCHEDULE").get<std::string>(), "monotonic:dynamic,7");
+  EXPECT_EQ(omp.at("environment").at("GOMP_CLOTHBENCH_TEST").get<std::string>(), "1");
+  EXPECT_FALSE(omp.at("environment").contains("PATH"));
+  unsetenv("GOMP_CLOTHBENCH_TEST");
+}
+
+TEST(MachineContext, SummaryMentionsTheEssentials) {
+  const json c = machine_context();
+  const std::string text = clothbench::harness::machine_summary(c);
+  EXPECT_THAT(text, testing::HasSubstr(c.at("cpu").at("model").get<std::string>()));
+  EXPECT_THAT(text, testing::HasSubstr(c.at("openmp").at("runtime").at("name").get<std::string>()));
+  EXPECT_THAT(text, testing::HasSubstr("PU(s)"));
+  EXPECT_THAT(clothbench::harness::version_string(),
+              testing::HasSubstr(c.at("build").at("git_revision").get<std::string>()));
+}
+
+}  // namespace
