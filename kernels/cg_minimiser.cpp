@@ -39,6 +39,7 @@ double cubic_minimiser(double a, double fa, double da, double b, double fb, doub
 struct LineSearchResult {
   bool accepted = false;
   double alpha = 0.0;
+  double end_alpha = 0.0;  ///< step length the unknowns are left at
   Evaluation at;
   int evaluations = 0;
 };
@@ -52,9 +53,14 @@ LineSearchResult line_search(StepObjective& objective, LoopRunner& run,
   double lo = 0.0, f_lo = phi0, d_lo = slope0;
   double hi = std::numeric_limits<double>::infinity(), f_hi = 0.0, d_hi = 0.0;
   double best_alpha = 0.0, best_value = phi0, last_alpha = -1.0;
+  double at = 0.0;  // current step length from the base point
+  auto go_to = [&](double target) {
+    objective.move(run, target - at);
+    at = target;
+  };
   Evaluation best;
   for (int k = 0; k < settings.max_line_search; ++k) {
-    objective.move(run, alpha);
+    go_to(alpha);
     const Evaluation e = objective.evaluate(run);
     ++result.evaluations;
     last_alpha = alpha;
@@ -71,7 +77,7 @@ LineSearchResult line_search(StepObjective& objective, LoopRunner& run,
     } else {
       if (std::abs(e.slope) <= -settings.curvature * slope0) {
         result.accepted = true;
-        result.alpha = alpha;
+        result.alpha = result.end_alpha = alpha;
         result.at = e;
         return result;
       }
@@ -100,7 +106,7 @@ LineSearchResult line_search(StepObjective& objective, LoopRunner& run,
   }
   if (best_alpha > 0.0) {
     if (last_alpha != best_alpha) {
-      objective.move(run, best_alpha);
+      go_to(best_alpha);
       best = objective.evaluate(run);
       ++result.evaluations;
     }
@@ -108,6 +114,7 @@ LineSearchResult line_search(StepObjective& objective, LoopRunner& run,
     result.alpha = best_alpha;
     result.at = best;
   }
+  result.end_alpha = at;
   return result;
 }
 
@@ -167,7 +174,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
     report.evaluations += ls.evaluations;
     if (!ls.accepted) {
       // Back to the base point; its gradient must be recomputed (trials overwrote it).
-      objective.move(run, 0.0);
+      objective.move(run, -ls.end_alpha);
       current = objective.evaluate(run);
       ++report.evaluations;
       if (restart) {

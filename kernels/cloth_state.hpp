@@ -24,37 +24,38 @@ struct ClothState {
   std::vector<double> position;      ///< x, the current iterate (m)
   std::vector<double> step_start;    ///< x^n, positions at the start of the step (m)
   std::vector<double> target;        ///< x~ = x^n + (1 - c)(x^n - x^(n-1)) (m)
-  std::vector<double> base;          ///< positions at the start of the CG iteration (m)
   std::vector<double> gradient;      ///< d(objective)/dx at the current iterate
   std::vector<double> gradient_old;  ///< gradient at the start of the CG iteration
   std::vector<double> direction;     ///< CG search direction
   std::vector<float> preconditioner; ///< 6 per slot: inverse 3x3 block (xx xy xz yy yz zz)
-  std::vector<double> contact_force; ///< per slot: normal support force (N)
   // elements (per element id)
   std::vector<double> edge_force;     ///< t_e at the last completed step (N/m)
   std::vector<double> triple_moment;  ///< M_t at the last completed step (N)
   std::vector<double> edge_scratch;   ///< per evaluation: w t / l (N/m^2 * m = N/m)
   std::vector<double> triple_scratch; ///< per evaluation: 3 per id, w M (A, Bc, C)
+  /// Per step: 2 per id, curvatures where the bending loading / unloading curve reaches M_t
+  /// (the return mapping's breakpoints; an inverse of a non-power-law curve, so cached).
+  std::vector<double> triple_breakpoints;
 
   /// Allocates every array for `slots` particles (zero-filled).
   void allocate(std::int64_t slots) {
     const auto n = static_cast<std::size_t>(slots);
-    for (auto* v : {&position, &step_start, &target, &base, &gradient, &gradient_old, &direction}) {
+    for (auto* v : {&position, &step_start, &target, &gradient, &gradient_old, &direction}) {
       v->assign(3 * n, 0.0);
     }
     preconditioner.assign(6 * n, 0.0f);
-    contact_force.assign(n, 0.0);
     edge_force.assign(2 * n, 0.0);
     triple_moment.assign(2 * n, 0.0);
     edge_scratch.assign(2 * n, 0.0);
     triple_scratch.assign(6 * n, 0.0);
+    triple_breakpoints.assign(4 * n, 0.0);
   }
   /// Bytes held by the arrays.
   [[nodiscard]] std::size_t memory_bytes() const {
     std::size_t b = preconditioner.capacity() * sizeof(float);
-    for (const auto* v : {&position, &step_start, &target, &base, &gradient, &gradient_old,
-                          &direction, &contact_force, &edge_force, &triple_moment, &edge_scratch,
-                          &triple_scratch}) {
+    for (const auto* v : {&position, &step_start, &target, &gradient, &gradient_old, &direction,
+                          &edge_force, &triple_moment, &edge_scratch, &triple_scratch,
+                          &triple_breakpoints}) {
       b += v->capacity() * sizeof(double);
     }
     return b;

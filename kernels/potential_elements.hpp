@@ -3,9 +3,63 @@
 // analytic loops and the local numeric gradient share one definition.
 #pragma once
 
+#include <type_traits>
+
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
+
+/// Return mapping evaluated regime first: the curves at `strain` (one log and two exp for
+/// tension, one expm1 for bending) decide the branch, and the breakpoints (curve inverses) are
+/// only needed off the loading branch. `cached` holds {lower, upper} breakpoints computed once
+/// per step, or is null to compute them here. Same values as return_map() of kes_material.hpp.
+template <class Band>
+inline ReturnMapped fast_return_map(const Band& band, double previous, double strain,
+                                    const double* cached) {
+  ReturnMapped r;
+  if (!(strain > 0.0)) return r;
+  const BandCurves c = band.curves(strain);
+  if (!(previous < c.upper)) {  // loading branch
+    r.force = c.upper;
+    r.slope = c.upper_slope;
+    if constexpr (std::is_same_v<Band, TensileBand>) {
+      r.potential = strain < band.emt ? c.upper * strain / (band.p + 1.0)
+                                      : band.loading_integral(strain);
+    } else {
+      r.potential = band.loading_integral(strain);
+    }
+    return r;
+  }
+  double lower, upper;
+  if (cached != nullptr) {
+    lower = cached[0];
+    upper = cached[1];
+  } else {
+    lower = band.loading_inverse(previous);
+    upper = std::max(lower, band.unloading_inverse(previous));
+  }
+  const double lower_potential = band.loading_integral(lower);
+  if (!(previous < c.lower)) {  // plateau: the previous force is kept
+    r.force = previous;
+    r.potential = lower_potential + previous * (strain - lower);
+    return r;
+  }
+  r.force = c.lower;  // unloading branch
+  r.slope = c.lower_slope;
+  r.potential = lower_potential + previous * (upper - lower) - band.unloading_integral(upper) +
+                band.unloading_integral(strain);
+  return r;
+}
+
+/// Breakpoints {lower, upper} of the bending band for previous moment `previous` (cached per step).
+inline void bending_breakpoints(const BendingBand& band, double previous, double* out) {
+  if (!(previous > 0.0)) {
+    out[0] = out[1] = 0.0;
+    return;
+  }
+  out[0] = band.loading_inverse(previous);
+  out[1] = std::max(out[0], band.unloading_inverse(previous));
+}
 
 /// Edge e = 2*slot+d: energy w L Psi(eps); force density w t / l (N/m / m * m) for the gather.
 struct EdgeTerm {
@@ -26,8 +80,8 @@ inline EdgeTerm edge_term(const StepContext& ctx, std::int64_t id, const Positio
   term.length = e.norm();
   const double rest = mesh.edge_rest[id], width = mesh.edge_width[id];
   term.strain = term.length / rest - 1.0;
-  const ReturnMapped r =
-      map_force(ctx.material.tensile[element_direction(id)], ctx.state.edge_force[id], term.strain);
+  const ReturnMapped r = fast_return_map(ctx.material.tensile[element_direction(id)],
+                                         ctx.state.edge_force[id], term.strain, nullptr);
   term.energy = width * rest * r.potential;
   term.force = r.force;
   term.slope = r.slope;
@@ -56,8 +110,9 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
   term.angle = turning_angle<double>(e1, e2);
   const double rest = mesh.triple_rest[id], width = mesh.triple_width[id];
   term.curvature = term.angle.theta / rest;
-  const ReturnMapped r = map_force(ctx.material.bending[element_direction(id)],
-                                   ctx.state.triple_moment[id], term.curvature);
+  const ReturnMapped r =
+      fast_return_map(ctx.material.bending[element_direction(id)], ctx.state.triple_moment[id],
+                      term.curvature, &ctx.state.triple_breakpoints[2 * id]);
   term.energy = width * rest * r.potential;
   term.moment = r.force;
   term.slope = r.slope;

@@ -17,6 +17,7 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
 
 void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
+  prepare_history(run);
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
     if (ctx_.is_free(s)) vec3(st.position, s) = vec3(st.target, s);
   });
@@ -168,7 +169,6 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
           g = m / (dt * dt) * offset - m * gravity + contact.gradient +
               gather_elastic_gradient(mesh, st, s, x);
         }
-        st.contact_force[s] = contact.support;
         const Eigen::Vector3d z = apply_symmetric(st.preconditioner, s, g);
         const double ratio = g.norm() / (m * g_ref);
         acc.residual_sq += ratio * ratio;
@@ -201,16 +201,23 @@ double PotentialObjective::update_direction(LoopRunner& run, double beta) {
                             auto dir = vec3(st.direction, s);
                             dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
                             vec3(st.gradient_old, s) = g;
-                            vec3(st.base, s) = vec3(st.position, s);
                             acc.value += dir.dot(g);
                           });
   return run.reduce(scalar_partials_).value;
 }
 
-void PotentialObjective::move(LoopRunner& run, double alpha) {
+void PotentialObjective::move(LoopRunner& run, double delta) {
   ClothState& st = ctx_.state;
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    vec3(st.position, s) = vec3(st.base, s) + alpha * vec3(st.direction, s);
+    vec3(st.position, s) += delta * vec3(st.direction, s);
+  });
+}
+
+void PotentialObjective::prepare_history(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+    bending_breakpoints(ctx_.material.bending[element_direction(id)], st.triple_moment[id],
+                        &st.triple_breakpoints[2 * id]);
   });
 }
 
@@ -229,7 +236,6 @@ void PotentialObjective::end_step(LoopRunner& run) {
     const Eigen::Vector3d xs = x(s);
     vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
     vec3(st.step_start, s) = xs;
-    st.contact_force[s] = contact_penalty(ctx_, s, xs).support;
   });
 }
 

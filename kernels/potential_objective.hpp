@@ -20,6 +20,7 @@ class PotentialObjective final : public StepObjective {
   double update_direction(LoopRunner& run, double beta) override;
   void move(LoopRunner& run, double alpha) override;
   void end_step(LoopRunner& run) override;
+  void prepare_history(LoopRunner& run) override;
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`

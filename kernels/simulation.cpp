@@ -43,7 +43,6 @@ void Simulation::place_initial_positions() {
       vec3(state_.position, s) = x;
       vec3(state_.step_start, s) = x;
       vec3(state_.target, s) = x;  // starts at rest
-      vec3(state_.base, s) = x;
     }
   }
 }
@@ -79,7 +78,7 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   return report;
 }
 
-Evaluation Simulation::evaluate(schedulers::LoopDriver& driver) {
+Evaluation Simulation::evaluate(schedulers::LoopDriver& driver, bool refresh_history) {
   if (driver.space() == schedulers::IterationSpace::active && !lists_built_) {
     lists_.rebuild(mesh_);
     lists_built_ = true;
@@ -88,6 +87,7 @@ Evaluation Simulation::evaluate(schedulers::LoopDriver& driver) {
 #pragma omp parallel
   {
     LoopRunner run(driver, mesh_, lists_built_ ? &lists_ : nullptr, Instrumentation::off, nullptr);
+    if (refresh_history) objective_->prepare_history(run);
     const Evaluation e = objective_->evaluate(run);
     if (omp_get_thread_num() == 0) result = e;
   }
@@ -167,6 +167,15 @@ StateDiagnostics Simulation::diagnostics() const {
     }
   }
   return d;
+}
+
+std::vector<double> Simulation::contact_forces() const {
+  const StepContext ctx{mesh_, material_, obstacles_, config_, const_cast<ClothState&>(state_)};
+  std::vector<double> forces(static_cast<std::size_t>(mesh_.slot_count()), 0.0);
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
+    if (ctx.is_free(s)) forces[s] = contact_penalty(ctx, s, vec3(state_.position, s)).support;
+  }
+  return forces;
 }
 
 std::size_t Simulation::memory_bytes() const {

@@ -53,10 +53,14 @@ class Simulation {
                   LoopTimes* times = nullptr);
 
   /// Evaluates the objective and its gradient at the current unknowns (no step taken).
-  /// Used by the gradient tests; the gradient is then in state().gradient.
-  Evaluation evaluate(schedulers::LoopDriver& driver);
+  /// Used by the gradient tests and benchmarks; the gradient is then in state().gradient.
+  /// `refresh_history` recomputes the per-step constants from the element forces first (needed
+  /// after editing state() by hand; a benchmark of the evaluation alone passes false).
+  Evaluation evaluate(schedulers::LoopDriver& driver, bool refresh_history = true);
 
   [[nodiscard]] StateDiagnostics diagnostics() const;
+  /// Normal support force of every slot at the current positions (N; 0 off contact).
+  [[nodiscard]] std::vector<double> contact_forces() const;
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
   [[nodiscard]] const ClothState& state() const { return state_; }
   [[nodiscard]] ClothState& state() { return state_; }

@@ -63,11 +63,13 @@ class StepObjective {
   virtual void refresh_preconditioner(LoopRunner& run) = 0;
   /// Value, gradient (stored) and the CG scalars at the current unknowns.
   virtual Evaluation evaluate(LoopRunner& run) = 0;
-  /// direction = -P^-1 g + beta direction; gradient_old = g; base = unknowns.
-  /// Returns the new direction . g.
+  /// direction = -P^-1 g + beta direction; gradient_old = g. Returns the new direction . g.
   virtual double update_direction(LoopRunner& run, double beta) = 0;
-  /// unknowns = base + alpha direction.
-  virtual void move(LoopRunner& run, double alpha) = 0;
+  /// unknowns += delta * direction (the minimiser keeps track of the step length).
+  virtual void move(LoopRunner& run, double delta) = 0;
+  /// Derives per-step constants from the element forces of the last completed step
+  /// (the bending band's breakpoints). Called by begin_step and before stand-alone evaluations.
+  virtual void prepare_history(LoopRunner& run) = 0;
   /// Stores the step's forces (the hysteresis state) and advances the position history.
   virtual void end_step(LoopRunner& run) = 0;
 };

@@ -148,11 +148,10 @@ SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
   const kernels::ClothState& st = simulation.state();
   SurfaceMesh out;
   out.points.reserve(static_cast<std::size_t>(mesh.slot_count()));
-  std::vector<double> contact(static_cast<std::size_t>(mesh.slot_count()));
+  std::vector<double> contact = simulation.contact_forces();
   std::vector<double> pinned(static_cast<std::size_t>(mesh.slot_count()));
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
     out.points.emplace_back(kernels::vec3(st.position, s));
-    contact[static_cast<std::size_t>(s)] = st.contact_force[s];
     pinned[static_cast<std::size_t>(s)] = (mesh.flags[s] & kernels::kParticlePinned) ? 1.0 : 0.0;
   }
   out.quads = simulation.surface_quads();
