@@ -3,9 +3,6 @@
 
 #include <cmath>
 #include <limits>
-#include <cstdio>
-#include <cstdlib>
-#include <omp.h>
 
 namespace clothbench::kernels {
 
@@ -128,6 +125,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
   Evaluation current = objective.evaluate(run);
   report.evaluations = 1;
   report.initial = current;
+  if (settings.record_values) report.values.push_back(current.value);
   bool restart = true;
   double previous_gz = current.grad_dot_z;
   double previous_alpha = first_alpha, previous_slope = 0.0;
@@ -189,7 +187,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
     previous_alpha = ls.alpha;
     previous_slope = slope;
     current = ls.at;
-    if (std::getenv("CB_TRACE") && omp_get_thread_num() == 0) std::fprintf(stderr, "  it %d rms %.3e max %.3e alpha %.3e ev %d beta %.3f value %.9e\n", report.iterations, MinimiserReport::rms(current), current.residual_max, ls.alpha, ls.evaluations, beta, current.value);
+    if (settings.record_values) report.values.push_back(current.value);
     restart = false;
     ++report.iterations;
   }

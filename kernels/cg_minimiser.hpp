@@ -4,7 +4,9 @@
 // depend only on reduced scalars, which are bit-identical on every thread.
 #pragma once
 
+#include <cmath>
 #include <string>
+#include <vector>
 
 #include "kernels/step_objective.hpp"
 
@@ -22,6 +24,7 @@ struct MinimiserSettings {
   int refresh_every = 10;       ///< rebuild the preconditioner every k iterations (0 = never)
   double armijo = 1e-4;         ///< c1
   double curvature = 0.4;       ///< c2 (strong Wolfe)
+  bool record_values = false;   ///< keep the objective value after every iteration
 };
 
 /// Outcome of one step's minimisation.
@@ -32,6 +35,7 @@ struct MinimiserReport {
   StopReason reason = StopReason::iteration_cap;
   Evaluation initial;  ///< at the step's initial guess
   Evaluation final;    ///< at the accepted result
+  std::vector<double> values;  ///< objective at the start and after each iteration (if recorded)
   /// RMS normalised residual sqrt(cost / free particles) of an evaluation.
   static double rms(const Evaluation& e) {
     return e.free_particles > 0 ? std::sqrt(e.cost / static_cast<double>(e.free_particles)) : 0.0;

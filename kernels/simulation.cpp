@@ -7,10 +7,10 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <cstdlib>
 
 #include "kernels/potential_objective.hpp"
 #include "kernels/step_context.hpp"
+#include "kernels/violation_objective.hpp"
 
 namespace clothbench::kernels {
 
@@ -22,7 +22,11 @@ Simulation::Simulation(const SimulationConfig& config)
   state_.allocate(mesh_.slot_count());
   place_initial_positions();
   const StepContext ctx{mesh_, material_, obstacles_, config_, state_};
-  objective_ = std::make_unique<PotentialObjective>(ctx);
+  if (config_.solver.formulation == Formulation::violation) {
+    objective_ = std::make_unique<ViolationObjective>(ctx);
+  } else {
+    objective_ = std::make_unique<PotentialObjective>(ctx);
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -57,8 +61,7 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   MinimiserSettings settings;
   settings.tolerance = config_.solver.tolerance;
   settings.max_iterations = config_.solver.max_iterations;
-  if (const char* e = std::getenv("CB_REFRESH")) settings.refresh_every = std::atoi(e);
-  if (const char* e = std::getenv("CB_C2")) settings.curvature = std::atof(e);
+  settings.record_values = config_.solver.record_values;
   StepReport report;
   const double start = monotonic_seconds();
 #pragma omp parallel

@@ -1,0 +1,59 @@
+// Options of `clothbench sweep` (the grid of schedulers x thread counts behind the paper's
+// Table 2 and Fig. 12) and the parsing of its list arguments.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kernels/loop_runner.hpp"
+
+namespace clothbench::harness {
+
+/// How the OpenMP threads of every run are pinned.
+enum class BindMode {
+  none,  ///< leave it to the OpenMP runtime (OMP_PROC_BIND / OMP_PLACES are respected)
+  core,  ///< thread k of the team is bound to hwloc core k mod cores before each run
+};
+
+/// The paper's six configurations of Fig. 12, the default scheduler list.
+inline constexpr std::string_view kPaperSchedulers =
+    "static,dynamic:1,dynamic:2,dynamic:3,guided:1,active-lists";
+
+/// Everything a sweep needs, as given on the command line.
+struct SweepOptions {
+  std::filesystem::path scene_file;
+  std::vector<std::string> schedulers;  ///< specs as given, e.g. "dynamic:2"; order is kept
+  std::vector<int> threads;             ///< empty = default_thread_counts()
+  int repeat = 3;                       ///< measured repetitions per row and timing level
+  int warmup_steps = 2;                 ///< steps of the uncounted warm-up run per row (0: none)
+  std::optional<int> steps;             ///< override the scene's step count
+  kernels::Instrumentation instrument = kernels::Instrumentation::loops;
+  BindMode bind = BindMode::none;
+  bool allow_oversubscribe = false;  ///< thread counts above the hardware threads
+  bool resume = false;               ///< skip rows already in OUT/sweep.json
+  bool quiet = false;                ///< no progress bar, no per-row lines
+  bool plots = true;                 ///< run gnuplot at the end
+  std::filesystem::path output_dir = "results/latest";
+  std::vector<std::string> command_line;  ///< argv, recorded in the result
+};
+
+/// Splits "a,b,c" at commas; empty items are an error (std::invalid_argument naming `flag`).
+std::vector<std::string> split_list(std::string_view text, const char* flag);
+
+/// Parses "1,2,4" or ranges "1-8" (every integer); each count must be >= 1. Throws
+/// std::invalid_argument with a message naming `flag` and the bad item.
+std::vector<int> parse_thread_list(std::string_view text, const char* flag);
+
+/// Default thread counts: powers of two up to `cores`, plus `cores` itself (1,2 on 2 cores;
+/// 1,2,4,6 on 6 cores). `cores` comes from hwloc (physical cores).
+std::vector<int> default_thread_counts(int cores);
+
+/// "off" | "loops" | "chunks" and back.
+kernels::Instrumentation parse_instrumentation(std::string_view text);
+std::string to_string(kernels::Instrumentation instrumentation);
+std::string to_string(BindMode mode);
+
+}  // namespace clothbench::harness

@@ -1,0 +1,47 @@
+// The CG minimiser: the objective never increases within a step, and the step converges.
+#include <gtest/gtest.h>
+
+#include "kernel_fixtures.hpp"
+
+namespace clothbench {
+namespace {
+
+TEST(Minimiser, ObjectiveNeverIncreasesWithinAStep) {
+  for (bool preconditioner : {true, false}) {
+    kernels::SimulationConfig c = testing::small_cloth(true, true);
+    c.solver.record_values = true;
+    c.solver.preconditioner = preconditioner;
+    c.solver.tolerance = 1e-6;
+    c.solver.max_iterations = 300;
+    kernels::Simulation sim(c);
+    schedulers::OmpStaticDriver driver;
+    int iterations = 0;
+    for (int step = 0; step < 8; ++step) {
+      const kernels::StepReport r = sim.step(driver);
+      const std::vector<double>& v = r.minimiser.values;
+      ASSERT_EQ(v.size(), static_cast<std::size_t>(r.minimiser.iterations) + 1);
+      for (std::size_t k = 1; k < v.size(); ++k) {
+        EXPECT_LT(v[k], v[k - 1]) << "step " << r.step << " iteration " << k
+                                  << (preconditioner ? " (block Jacobi)" : " (scaled)");
+      }
+      iterations += r.minimiser.iterations;
+    }
+    EXPECT_GT(iterations, 0);
+  }
+}
+
+TEST(Minimiser, ConvergesToTheToleranceOnASmallStep) {
+  kernels::SimulationConfig c = testing::small_cloth(false, true);
+  c.solver.tolerance = 1e-8;
+  c.solver.max_iterations = 2000;
+  kernels::Simulation sim(c);
+  schedulers::OmpStaticDriver driver;
+  for (int step = 0; step < 5; ++step) {
+    const kernels::StepReport r = sim.step(driver);
+    EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
+    EXPECT_LE(kernels::MinimiserReport::rms(r.minimiser.final), 1e-8);
+  }
+}
+
+}  // namespace
+}  // namespace clothbench
