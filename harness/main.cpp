@@ -2,6 +2,8 @@
 //   clothbench run SCENE [options]   one verified simulation (harness/run/run_scene.hpp)
 //   clothbench check SCENE           validate a scene file and print what it configures
 //   clothbench info [--json]         the machine context (harness/machine)
+//   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
+//   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file).
 #include <fmt/format.h>
@@ -13,8 +15,10 @@
 #include <iostream>
 
 #include "harness/machine/machine_context.hpp"
+#include "harness/report/sweep_table.hpp"
 #include "harness/run/run_scene.hpp"
 #include "harness/scene/scene.hpp"
+#include "harness/sweep/sweep.hpp"
 
 namespace {
 
@@ -93,6 +97,61 @@ int main(int argc, char** argv) {
   auto* info_command = app.add_subcommand("info", "Print the machine context");
   info_command->add_flag("--json", json, "As JSON (the block stored with every result)");
 
+  // `clothbench sweep`: the lists are parsed after CLI11 so errors can name the bad item.
+  clothbench::harness::SweepOptions sweep;
+  std::string sweep_schedulers{clothbench::harness::kPaperSchedulers};
+  std::string sweep_threads;
+  std::string sweep_instrument = "loops";
+  std::string sweep_bind = "none";
+  int sweep_steps = 0;
+  bool sweep_no_plots = false;
+  auto* sweep_command = app.add_subcommand(
+      "sweep", "Run every scheduler x thread count, write Table 2, Fig. 12 and the JSON record");
+  sweep_command->add_option("SCENE", sweep.scene_file, "Scene file (TOML)")->required();
+  sweep_command
+      ->add_option("--schedulers", sweep_schedulers,
+                   "Comma-separated scheduler specs (see `run --scheduler`)")
+      ->capture_default_str();
+  sweep_command->add_option("--threads", sweep_threads,
+                            "Thread counts, e.g. 1,2,4 or 1-8 (default: powers of two up to the "
+                            "cores, and the cores)");
+  sweep_command->add_flag("--oversubscribe", sweep.allow_oversubscribe,
+                          "Allow thread counts above the hardware threads (rows are marked)");
+  sweep_command->add_option("--repeat", sweep.repeat, "Measured runs per row and timing level")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  sweep_command->add_option("--warmup-steps", sweep.warmup_steps,
+                            "Steps of the uncounted warm-up run of each row (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, INT_MAX));
+  auto* sweep_steps_option =
+      sweep_command->add_option("--steps", sweep_steps, "Override the scene's step count")
+          ->check(CLI::Range(1, INT_MAX));
+  sweep_command
+      ->add_option("--instrument", sweep_instrument,
+                   "Loop timing for the overhead decomposition (its cost is measured)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"off", "loops", "chunks"}));
+  sweep_command
+      ->add_option("--bind", sweep_bind,
+                   "core: pin thread k to core k (hwloc); none: leave it to OMP_PROC_BIND")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "core"}));
+  sweep_command->add_option("--out", sweep.output_dir, "Output directory")->capture_default_str();
+  sweep_command->add_flag("--resume", sweep.resume, "Skip rows already in OUT/sweep.json");
+  sweep_command->add_flag("--quiet", sweep.quiet, "No progress bar and no per-row lines");
+  sweep_command->add_flag("--no-plots", sweep_no_plots, "Do not run gnuplot");
+
+  std::filesystem::path table_file;
+  std::string table_format = "md";
+  auto* table_command =
+      app.add_subcommand("table", "Print Table 2 (per scheduler) from a stored sweep.json");
+  table_command->add_option("RESULTS", table_file, "sweep.json written by `clothbench sweep`")
+      ->required();
+  table_command->add_option("--format", table_format, "md or csv")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"md", "csv"}));
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -110,6 +169,37 @@ int main(int argc, char** argv) {
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
+    if (*sweep_command) {
+      try {
+        sweep.schedulers = clothbench::harness::split_list(sweep_schedulers, "--schedulers");
+        if (!sweep_threads.empty()) {
+          sweep.threads = clothbench::harness::parse_thread_list(sweep_threads, "--threads");
+        }
+        if (*sweep_steps_option) sweep.steps = sweep_steps;
+        sweep.instrument = clothbench::harness::parse_instrumentation(sweep_instrument);
+        sweep.bind = sweep_bind == "core" ? clothbench::harness::BindMode::core
+                                          : clothbench::harness::BindMode::none;
+        sweep.plots = !sweep_no_plots;
+        sweep.command_line.assign(argv, argv + argc);
+        return clothbench::harness::run_sweep(sweep);
+      } catch (const std::invalid_argument& error) {
+        std::fprintf(stderr, "clothbench sweep: %s\n", error.what());
+        return kExitBadInput;
+      }
+    }
+    if (*table_command) {
+      nlohmann::json document;
+      try {
+        document = clothbench::harness::load_sweep_document(table_file);
+      } catch (const std::invalid_argument& error) {
+        std::fprintf(stderr, "clothbench table: %s\n", error.what());
+        return kExitBadInput;
+      }
+      clothbench::harness::add_derived(document);
+      std::cout << (table_format == "csv" ? clothbench::harness::format_csv(document)
+                                          : clothbench::harness::format_markdown(document));
+      return 0;
+    }
     if (*info_command) {
       const auto context = clothbench::harness::machine_context();
       if (json) {

@@ -42,6 +42,38 @@ struct LoopTimes {
   void resize(int thread_count) { threads.assign(static_cast<std::size_t>(thread_count), {}); }
 };
 
+/// Per-tile partial sums of one reduction, double-buffered: a loop writes one buffer while a
+/// slower thread may still be summing the other from the previous loop on the same array
+/// (consecutive loops are separated by a barrier only at their end). Each thread flips its
+/// own parity, and all threads run the same sequence of loops, so they agree on the buffer.
+template <class Acc>
+class TilePartials {
+ public:
+  static constexpr int kMaxThreads = 1024;
+  TilePartials() = default;
+  explicit TilePartials(std::int64_t tiles) { resize(tiles); }
+  void resize(std::int64_t tiles) {
+    for (auto& b : buffers_) b.assign(static_cast<std::size_t>(tiles), Acc{});
+    parity_.assign(kMaxThreads, 0);
+  }
+  /// The buffer the calling thread's next loop writes (flips the thread's parity).
+  Acc* begin_write(int thread) {
+    std::uint8_t& p = parity_[static_cast<std::size_t>(thread)];
+    p ^= 1u;
+    return buffers_[p].data();
+  }
+  /// Sum over tiles, in tile order, of the buffer the calling thread last wrote.
+  [[nodiscard]] Acc sum(int thread) const {
+    Acc total{};
+    for (const Acc& a : buffers_[parity_[static_cast<std::size_t>(thread)]]) total += a;
+    return total;
+  }
+
+ private:
+  std::vector<Acc> buffers_[2];
+  std::vector<std::uint8_t> parity_;
+};
+
 /// No reduction: the accumulator of loops that only write element slots.
 struct NoReduction {};
 
@@ -60,29 +92,32 @@ class LoopRunner {
         times_(times) {}
 
   /// Calls body(id, acc) for every live element of `kind`; acc is a fresh Acc per tile and is
-  /// stored in partials[tile] when `partials` is not null (it has mesh.tile_count() entries).
+  /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
   template <class Acc, class Body>
-  void for_each(ElementKind kind, Acc* partials, Body&& body);
+  void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body) {
+    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->begin_write(omp_get_thread_num()),
+                  body);
+  }
 
   /// Same with no reduction.
   template <class Body>
   void for_each(ElementKind kind, Body&& body) {
-    for_each<NoReduction>(kind, nullptr,
-                          [&](std::int64_t id, NoReduction&) { body(id); });
+    run_loop<NoReduction>(kind, nullptr, [&](std::int64_t id, NoReduction&) { body(id); });
   }
 
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
   template <class Acc>
-  [[nodiscard]] Acc reduce(const std::vector<Acc>& partials) const {
-    Acc total{};
-    for (const Acc& p : partials) total += p;
-    return total;
+  [[nodiscard]] Acc reduce(const TilePartials<Acc>& partials) const {
+    return partials.sum(omp_get_thread_num());
   }
 
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
   [[nodiscard]] schedulers::IterationSpace space() const { return driver_.space(); }
 
  private:
+  template <class Acc, class Body>
+  void run_loop(ElementKind kind, Acc* partials, Body&& body);
+
   template <class Acc, class Body>
   void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Body& body) const {
     Acc acc{};
@@ -105,7 +140,7 @@ class LoopRunner {
 };
 
 template <class Acc, class Body>
-void LoopRunner::for_each(ElementKind kind, Acc* partials, Body&& body) {
+void LoopRunner::run_loop(ElementKind kind, Acc* partials, Body&& body) {
   const int thread = omp_get_thread_num();
   const bool timed = instrumentation_ != Instrumentation::off && times_ != nullptr;
   const double entry = timed ? monotonic_seconds() : 0.0;

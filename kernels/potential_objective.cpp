@@ -10,10 +10,10 @@ namespace clothbench::kernels {
 
 PotentialObjective::PotentialObjective(const StepContext& ctx)
     : ctx_(ctx),
-      edge_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
-      triple_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
-      scalar_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())),
-      gather_partials_(static_cast<std::size_t>(ctx.mesh.tile_count())) {}
+      edge_partials_(ctx.mesh.tile_count()),
+      triple_partials_(ctx.mesh.tile_count()),
+      scalar_partials_(ctx.mesh.tile_count()),
+      gather_partials_(ctx.mesh.tile_count()) {}
 
 void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
@@ -132,13 +132,13 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   const bool numeric = ctx_.config.solver.gradient == GradientMode::numeric;
 
-  run.for_each<ScalarSum>(ElementKind::edges, edge_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::edges, &edge_partials_,
                           [&](std::int64_t id, ScalarSum& acc) {
                             const EdgeTerm e = edge_term(ctx_, id, x);
                             st.edge_scratch[id] = e.force_density;
                             acc.value += e.energy;
                           });
-  run.for_each<ScalarSum>(ElementKind::triples, triple_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::triples, &triple_partials_,
                           [&](std::int64_t id, ScalarSum& acc) {
                             const TripleTerm t = triple_term(ctx_, id, x);
                             double* k = &st.triple_scratch[3 * id];
@@ -151,7 +151,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   const double g_ref = ctx_.gravity_reference();
   const Eigen::Vector3d gravity = ctx_.config.time.gravity;
   run.for_each<GatherSums>(
-      ElementKind::particles, gather_partials_.data(), [&](std::int64_t s, GatherSums& acc) {
+      ElementKind::particles, &gather_partials_, [&](std::int64_t s, GatherSums& acc) {
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) {
           g.setZero();
@@ -195,7 +195,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
 
 double PotentialObjective::update_direction(LoopRunner& run, double beta) {
   ClothState& st = ctx_.state;
-  run.for_each<ScalarSum>(ElementKind::particles, scalar_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::particles, &scalar_partials_,
                           [&](std::int64_t s, ScalarSum& acc) {
                             const Eigen::Vector3d g = vec3(st.gradient, s);
                             auto dir = vec3(st.direction, s);

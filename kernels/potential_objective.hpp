@@ -31,10 +31,10 @@ class PotentialObjective final : public StepObjective {
   Eigen::Matrix3d diagonal_block(std::int64_t s) const;
 
   StepContext ctx_;
-  std::vector<ScalarSum> edge_partials_;
-  std::vector<ScalarSum> triple_partials_;
-  std::vector<ScalarSum> scalar_partials_;
-  std::vector<GatherSums> gather_partials_;
+  TilePartials<ScalarSum> edge_partials_;
+  TilePartials<ScalarSum> triple_partials_;
+  TilePartials<ScalarSum> scalar_partials_;
+  TilePartials<GatherSums> gather_partials_;
 };
 
 }  // namespace clothbench::kernels

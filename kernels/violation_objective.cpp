@@ -30,7 +30,7 @@ ViolationObjective::CgSums& ViolationObjective::CgSums::operator+=(const CgSums&
 ViolationObjective::ViolationObjective(const StepContext& ctx)
     : ctx_(ctx), scales_(violation_scales(ctx)) {
   vs_.allocate(ctx.mesh.slot_count());
-  const auto tiles = static_cast<std::size_t>(ctx.mesh.tile_count());
+  const auto tiles = ctx.mesh.tile_count();
   for (auto* v : {&edge_value_partials_, &triple_value_partials_, &particle_dir_partials_,
                   &edge_dir_partials_, &triple_dir_partials_}) {
     v->resize(tiles);
@@ -53,8 +53,8 @@ void ViolationObjective::begin_step(LoopRunner& run) {
   refresh_preconditioner(run);
 }
 
-void ViolationObjective::element_loops(LoopRunner& run, ScalarSum* edge_partials,
-                                       ScalarSum* triple_partials) {
+void ViolationObjective::element_loops(LoopRunner& run, TilePartials<ScalarSum>* edge_partials,
+                                       TilePartials<ScalarSum>* triple_partials) {
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -98,11 +98,11 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
   const std::size_t obstacle_count = ctx_.obstacles.size();
 
   // 1, 2: element coefficients and band violations.
-  element_loops(run, edge_value_partials_.data(), triple_value_partials_.data());
+  element_loops(run, &edge_value_partials_, &triple_value_partials_);
 
   // 3: residuals, supports, dE/dr and the particle's own gradient terms.
   run.for_each<ResidualSums>(
-      ElementKind::particles, residual_partials_.data(), [&](std::int64_t s, ResidualSums& acc) {
+      ElementKind::particles, &residual_partials_, [&](std::int64_t s, ResidualSums& acc) {
         auto r_bar = vec3(vs_.rho, s);
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) {
@@ -131,7 +131,7 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
 
   // 4: dE/dt and the edges' position contributions.
   run.for_each<CgSums>(
-      ElementKind::edges, edge_cg_partials_.data(), [&](std::int64_t id, CgSums& acc) {
+      ElementKind::edges, &edge_cg_partials_, [&](std::int64_t id, CgSums& acc) {
         double gt;
         if (numeric) {
           gt = numeric_edge_gradient(ctx_, scales_, id);
@@ -161,7 +161,7 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
 
   // 5: dE/dM and the triples' position contributions (Hessian of theta times rho by duals).
   run.for_each<CgSums>(
-      ElementKind::triples, triple_cg_partials_.data(), [&](std::int64_t id, CgSums& acc) {
+      ElementKind::triples, &triple_cg_partials_, [&](std::int64_t id, CgSums& acc) {
         double gm;
         if (numeric) {
           gm = numeric_triple_gradient(ctx_, scales_, id);
@@ -205,7 +205,7 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
 
   // 6: gather dE/dx (own terms from loop 3 plus every incident element, fixed order).
   run.for_each<CgSums>(
-      ElementKind::particles, particle_cg_partials_.data(), [&](std::int64_t s, CgSums& acc) {
+      ElementKind::particles, &particle_cg_partials_, [&](std::int64_t s, CgSums& acc) {
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) return;  // zeroed by loop 3
         if (numeric) {
@@ -390,7 +390,7 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
 
 double ViolationObjective::update_direction(LoopRunner& run, double beta) {
   ClothState& st = ctx_.state;
-  run.for_each<ScalarSum>(ElementKind::particles, particle_dir_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::particles, &particle_dir_partials_,
                           [&](std::int64_t s, ScalarSum& acc) {
                             const Eigen::Vector3d g = vec3(st.gradient, s);
                             auto dir = vec3(st.direction, s);
@@ -406,12 +406,12 @@ double ViolationObjective::update_direction(LoopRunner& run, double beta) {
     old[id] = g;
     acc.value += direction[id] * g;
   };
-  run.for_each<ScalarSum>(ElementKind::edges, edge_dir_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::edges, &edge_dir_partials_,
                           [&](std::int64_t id, ScalarSum& acc) {
                             scalar_update(vs_.edge_gradient, vs_.edge_gradient_old,
                                           vs_.edge_direction, vs_.edge_inverse, id, acc);
                           });
-  run.for_each<ScalarSum>(ElementKind::triples, triple_dir_partials_.data(),
+  run.for_each<ScalarSum>(ElementKind::triples, &triple_dir_partials_,
                           [&](std::int64_t id, ScalarSum& acc) {
                             scalar_update(vs_.triple_gradient, vs_.triple_gradient_old,
                                           vs_.triple_direction, vs_.triple_inverse, id, acc);

@@ -82,7 +82,8 @@ class ViolationObjective final : public StepObjective {
 
  private:
   /// Loops 1 and 2 (element coefficients into the scratch arrays); partials when not null.
-  void element_loops(LoopRunner& run, ScalarSum* edge_partials, ScalarSum* triple_partials);
+  void element_loops(LoopRunner& run, TilePartials<ScalarSum>* edge_partials,
+                     TilePartials<ScalarSum>* triple_partials);
   /// Gauss-Newton 3x3 diagonal block of E at free particle s (supports not applied).
   Eigen::Matrix3d diagonal_block(std::int64_t s) const;
 
@@ -90,7 +91,7 @@ class ViolationObjective final : public StepObjective {
   ViolationScales scales_;
   ViolationState vs_;
   Components components_;
-  std::vector<ScalarSum> edge_value_partials_, triple_value_partials_;
+  TilePartials<ScalarSum> edge_value_partials_, triple_value_partials_;
   struct ResidualSums {
     double newton = 0.0, contact = 0.0, residual_max = 0.0;
     std::int64_t free_particles = 0;
@@ -100,9 +101,9 @@ class ViolationObjective final : public StepObjective {
     double slope = 0.0, grad_dot_z = 0.0, grad_old_dot_z = 0.0;
     CgSums& operator+=(const CgSums& o);
   };
-  std::vector<ResidualSums> residual_partials_;
-  std::vector<CgSums> particle_cg_partials_, edge_cg_partials_, triple_cg_partials_;
-  std::vector<ScalarSum> particle_dir_partials_, edge_dir_partials_, triple_dir_partials_;
+  TilePartials<ResidualSums> residual_partials_;
+  TilePartials<CgSums> particle_cg_partials_, edge_cg_partials_, triple_cg_partials_;
+  TilePartials<ScalarSum> particle_dir_partials_, edge_dir_partials_, triple_dir_partials_;
 };
 
 }  // namespace clothbench::kernels

@@ -35,7 +35,7 @@ kernels::SimulationConfig bit_identity_scene(kernels::Formulation formulation) {
   c.obstacles.push_back(box);
   c.time.step = 0.004;
   c.solver.formulation = formulation;
-  c.solver.max_iterations = 25;
+  c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
   return c;
 }

@@ -1,0 +1,234 @@
+// Table 2 style tables from a sweep document (see sweep_table.hpp).
+#include "harness/report/sweep_table.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "harness/sweep/sweep_document.hpp"
+
+namespace clothbench::harness {
+
+using nlohmann::json;
+
+namespace {
+
+bool passed(const json& row) { return row["verification"].value("passed", false); }
+double median_time(const json& row) { return row["time_seconds"]["median"].get<double>(); }
+
+/// Rows grouped per scheduler (order of settings.schedulers, then first appearance),
+/// each group sorted by thread count.
+std::vector<std::vector<const json*>> grouped_rows(const json& document) {
+  const json& order = document["settings"]["schedulers"];
+  auto rank = [&](const json& row) {
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      if (order[i] == row["scheduler"]) return i;
+    }
+    return order.size();
+  };
+  std::vector<std::vector<const json*>> groups;
+  std::vector<std::pair<std::size_t, std::string>> keys;
+  for (const json& row : document["rows"]) {
+    const std::pair<std::size_t, std::string> key{rank(row), row["scheduler_canonical"]};
+    auto it = std::find(keys.begin(), keys.end(), key);
+    if (it == keys.end()) {
+      keys.push_back(key);
+      groups.emplace_back();
+      it = keys.end() - 1;
+    }
+    groups[static_cast<std::size_t>(it - keys.begin())].push_back(&row);
+  }
+  std::vector<std::size_t> index(groups.size());
+  for (std::size_t i = 0; i < index.size(); ++i) index[i] = i;
+  std::stable_sort(index.begin(), index.end(),
+                   [&](std::size_t a, std::size_t b) { return keys[a].first < keys[b].first; });
+  std::vector<std::vector<const json*>> sorted;
+  for (std::size_t i : index) {
+    auto g = groups[i];
+    std::stable_sort(g.begin(), g.end(), [](const json* a, const json* b) {
+      return (*a)["threads"].get<int>() < (*b)["threads"].get<int>();
+    });
+    sorted.push_back(std::move(g));
+  }
+  return sorted;
+}
+
+/// Seconds: 3 decimals from 1 s up (Table 2 style), else 3 significant digits; a given
+/// `format` otherwise; "-" for null/missing.
+std::string cell(const json& value, const char* format = nullptr) {
+  if (!value.is_number()) return "-";
+  const double v = value.get<double>();
+  if (format != nullptr) return fmt::format(fmt::runtime(format), v);
+  if (v == 0.0) return "0";
+  return std::abs(v) >= 1.0 ? fmt::format("{:.3f}", v) : fmt::format("{:.3g}", v);
+}
+
+std::string csv_cell(const json& value) {
+  if (value.is_null()) return "";
+  if (value.is_boolean()) return value.get<bool>() ? "true" : "false";
+  if (value.is_number_integer()) return std::to_string(value.get<long long>());
+  if (value.is_number()) return fmt::format("{:.9g}", value.get<double>());
+  std::string text = value.is_string() ? value.get<std::string>() : value.dump();
+  if (text.find_first_of(",\"\n") != std::string::npos) {
+    std::string quoted = "\"";
+    for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return quoted + "\"";
+  }
+  return text;
+}
+
+const json& accounting_field(const json& row, const char* key) {
+  static const json null_value = nullptr;
+  const json& a = row["accounting"];
+  return a.is_object() && a.contains(key) ? a[key] : null_value;
+}
+
+}  // namespace
+
+void add_derived(json& document) {
+  std::map<std::string, double> own_baseline;
+  double best = std::numeric_limits<double>::infinity();
+  for (const json& row : document["rows"]) {
+    if (row["threads"] == 1 && passed(row)) {
+      own_baseline[row["scheduler_canonical"]] = median_time(row);
+      best = std::min(best, median_time(row));
+    }
+  }
+  for (json& row : document["rows"]) {
+    json& d = row["derived"];
+    d = {{"speedup", nullptr},
+         {"efficiency", nullptr},
+         {"speedup_vs_best_1thread", nullptr},
+         {"efficiency_vs_best_1thread", nullptr}};
+    const double time = median_time(row);
+    if (!passed(row) || !(time > 0.0)) continue;
+    const double threads = row["threads"].get<double>();
+    const auto own = own_baseline.find(row["scheduler_canonical"]);
+    if (own != own_baseline.end()) {
+      d["speedup"] = own->second / time;
+      d["efficiency"] = own->second / time / threads;
+    }
+    if (best < std::numeric_limits<double>::infinity()) {
+      d["speedup_vs_best_1thread"] = best / time;
+      d["efficiency_vs_best_1thread"] = best / time / threads;
+    }
+  }
+}
+
+std::string format_markdown(const json& document) {
+  std::ostringstream out;
+  const json& scene = document["scene"];
+  const json& settings = document["settings"];
+  const json& machine = document["machine"];
+  out << fmt::format("# clothbench sweep: {}\n\n", scene["name"].get<std::string>());
+  out << fmt::format(
+      "Scene `{}` (hash {}), {} steps; time = median of {} runs (min-max shown), after a "
+      "{}-step warm-up; instrumentation `{}`; binding `{}`{}.\n",
+      scene["file"].get<std::string>(), scene["hash"].get<std::string>(),
+      settings["steps"].get<int>(), settings["repeat"].get<int>(),
+      settings.value("warmup_steps", 0), settings["instrument"].get<std::string>(),
+      settings.value("bind", "none"), document.value("complete", false) ? "" : " (INCOMPLETE sweep)");
+  if (machine.is_object() && machine.contains("cpu")) {
+    out << fmt::format("Machine: {} ({} cores, {} PUs), {} {}, {}.\n",
+                       machine["cpu"].value("model", "?"), machine["cpu"].value("cores", 0),
+                       machine["cpu"].value("pus", 0), machine["compiler"].value("id", "?"),
+                       machine["compiler"].value("version", "?"),
+                       machine["openmp"]["runtime"].value("name", "?"));
+  }
+  for (const auto& group : grouped_rows(document)) {
+    const json& first = *group.front();
+    out << fmt::format("\n## {}\n\n", first["scheduler_canonical"].get<std::string>());
+    if (!first["note"].get<std::string>().empty()) {
+      out << fmt::format("Note: {}\n\n", first["note"].get<std::string>());
+    }
+    out << "| Threads | Seq. overhead [s] | Para. overhead [s] | Imbalance [s] | Imbalance [%] "
+           "| Time [s] | Min-max [s] | Speed-up | Efficiency | Speed-up vs best 1-thread "
+           "| Verification |\n";
+    out << "|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:--|\n";
+    for (const json* r : group) {
+      const json& row = *r;
+      const json& t = row["time_seconds"];
+      const std::size_t failures = row["verification"]["failures"].size();
+      out << fmt::format(
+          "| {}{} | {} | {} | {} | {} | {} | {}-{} | {} | {} | {} | {} |\n",
+          row["threads"].get<int>(), row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
+          cell(accounting_field(row, "sequential_overhead_seconds")),
+          cell(accounting_field(row, "parallel_overhead_seconds")),
+          cell(accounting_field(row, "load_imbalance_seconds")),
+          cell(accounting_field(row, "imbalance_percent"), "{:.1f}"), cell(t["median"]),
+          cell(t["min"]), cell(t["max"]), cell(row["derived"]["speedup"], "{:.2f}"),
+          cell(row["derived"]["efficiency"], "{:.2f}"),
+          cell(row["derived"]["speedup_vs_best_1thread"], "{:.2f}"),
+          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} checks)", failures));
+    }
+  }
+  out << "\nSeq. overhead: time outside parallel loops (CG scalars, list rebuilds). Para. "
+         "overhead: loop wall time minus the busiest thread's work (fork/join, barriers, "
+         "dispatch). Imbalance: busiest minus mean thread work; [%] = busiest/mean - 1. All "
+         "three are summed over the loops of the median instrumented run. Time: uninstrumented "
+         "wall time. Speed-up: against the same scheduler's 1-thread time; a FAILED run shows "
+         "no speed-up.\n";
+  return out.str();
+}
+
+std::string format_csv(const json& document) {
+  std::ostringstream out;
+  out << "scheduler,scheduler_canonical,threads,oversubscribed,time_median_s,time_min_s,"
+         "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
+         "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
+         "instrumentation_cost_s,speedup,efficiency,speedup_vs_best_1thread,"
+         "efficiency_vs_best_1thread,verification\n";
+  for (const auto& group : grouped_rows(document)) {
+    for (const json* r : group) {
+      const json& row = *r;
+      const json& d = row["derived"];
+      std::vector<json> cells = {row["scheduler"], row["scheduler_canonical"], row["threads"],
+                                 row["oversubscribed"], row["time_seconds"]["median"],
+                                 row["time_seconds"]["min"], row["time_seconds"]["max"]};
+      for (const char* k : {"sequential_overhead_seconds", "parallel_overhead_seconds",
+                            "load_imbalance_seconds", "parallel_work_seconds",
+                            "unaccounted_seconds", "imbalance_percent", "thread_work_cv"}) {
+        cells.push_back(accounting_field(row, k));
+      }
+      cells.push_back(row["instrumented"]["level"]);
+      cells.push_back(row["instrumented"]["cost_seconds"]);
+      for (const char* k : {"speedup", "efficiency", "speedup_vs_best_1thread",
+                            "efficiency_vs_best_1thread"}) {
+        cells.push_back(d[k]);
+      }
+      cells.emplace_back(passed(row) ? "PASSED" : "FAILED");
+      for (std::size_t i = 0; i < cells.size(); ++i) {
+        out << (i ? "," : "") << csv_cell(cells[i]);
+      }
+      out << '\n';
+    }
+  }
+  return out.str();
+}
+
+json load_sweep_document(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::invalid_argument(fmt::format("{}: cannot read the file", file.string()));
+  json document;
+  try {
+    in >> document;
+  } catch (const json::exception& error) {
+    throw std::invalid_argument(fmt::format("{}: not JSON: {}", file.string(), error.what()));
+  }
+  const std::vector<std::string> problems = validate_sweep_document(document);
+  if (!problems.empty()) {
+    std::string text = fmt::format("{}: not a clothbench sweep document:", file.string());
+    for (std::size_t i = 0; i < problems.size() && i < 5; ++i) text += "\n  " + problems[i];
+    throw std::invalid_argument(text);
+  }
+  return document;
+}
+
+}  // namespace clothbench::harness

@@ -1,0 +1,29 @@
+// Tables from a sweep document (harness/sweep/sweep_document.hpp): the paper's Table 2
+// layout (threads, seq. overhead, para. overhead, time, speed-up; plus load imbalance,
+// efficiency and verification) per scheduler, as Markdown or CSV.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace clothbench::harness {
+
+/// Fills every row's `derived` block: speedup and efficiency against the 1-thread row of
+/// the same scheduler, and against the fastest passed 1-thread row of any scheduler.
+/// A row that failed verification, or whose baseline failed or is missing, gets nulls:
+/// a failed run never appears as a speed-up.
+void add_derived(nlohmann::json& document);
+
+/// Markdown: a heading and context paragraph, then one Table-2 style table per scheduler
+/// (in the order of settings.schedulers, threads ascending) and the column definitions.
+std::string format_markdown(const nlohmann::json& document);
+
+/// CSV (RFC 4180, header line, one line per row, empty cell for a missing value).
+std::string format_csv(const nlohmann::json& document);
+
+/// Reads and validates a sweep document; throws std::invalid_argument naming the file and
+/// the first problems when it cannot be read, parsed or is not a valid sweep document.
+nlohmann::json load_sweep_document(const std::filesystem::path& file);
+
+}  // namespace clothbench::harness

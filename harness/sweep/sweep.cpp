@@ -1,0 +1,245 @@
+// `clothbench sweep` (see sweep.hpp): the grid loop, resume, and the output files.
+#include "harness/sweep/sweep.hpp"
+
+#include <fmt/core.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <memory>
+#include <stdexcept>
+
+#include "harness/machine/machine_context.hpp"
+#include "harness/output/atomic_file.hpp"
+#include "harness/report/sweep_plots.hpp"
+#include "harness/report/sweep_table.hpp"
+#include "harness/run/run_summary.hpp"
+#include "harness/scene/scene.hpp"
+#include "harness/sweep/measured_run.hpp"
+#include "harness/sweep/progress_bar.hpp"
+#include "harness/sweep/sweep_document.hpp"
+#include "harness/sweep/thread_binding.hpp"
+#include "schedulers/registry.hpp"
+
+namespace clothbench::harness {
+
+using nlohmann::json;
+
+namespace {
+
+/// One scheduler of the grid, checked up front.
+struct GridScheduler {
+  std::string given;      ///< as on the command line
+  std::string canonical;  ///< driver name()
+  std::string note;       ///< driver note() (runtime workaround), may be empty
+};
+
+/// Builds and runs one fresh simulation with `threads` threads.
+MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int threads, int steps,
+                      kernels::Instrumentation level, const std::string* reference,
+                      std::unique_ptr<kernels::Simulation>* keep = nullptr) {
+  omp_set_num_threads(threads);
+  auto simulation = std::make_unique<kernels::Simulation>(scene.simulation);
+  MeasuredRun run = measure_run(*simulation, driver, steps, level, reference);
+  if (keep != nullptr) *keep = std::move(simulation);
+  return run;
+}
+
+/// Writes sweep.json, table.md and table.csv into `dir` (atomically, each).
+void write_outputs(json& document, const std::filesystem::path& dir) {
+  add_derived(document);
+  document["updated_utc"] = utc_now();
+  check_finite(document, "sweep");
+  write_file_atomically(dir / "sweep.json", document.dump(2) + "\n");
+  write_file_atomically(dir / "table.md", format_markdown(document));
+  write_file_atomically(dir / "table.csv", format_csv(document));
+}
+
+/// The existing document of a resumed sweep, after checking it matches this sweep.
+json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,
+                      const SweepOptions& options) {
+  json old = load_sweep_document(file);
+  auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument(fmt::format(
+        "--resume: {} was made with {}; start a new sweep (another --out, or without --resume)",
+        file.string(), what));
+  };
+  if (old["scene"]["hash"] != scene.source_sha256_or_fnv) refuse("a different scene file");
+  if (old["settings"]["steps"] != steps) {
+    refuse(fmt::format("{} steps, not {}", old["settings"]["steps"].dump(), steps));
+  }
+  if (old["settings"]["instrument"] != to_string(options.instrument)) {
+    refuse(fmt::format("--instrument {}", old["settings"]["instrument"].get<std::string>()));
+  }
+  return old;
+}
+
+std::string row_line(const json& row) {
+  const json& a = row["accounting"];
+  std::string parts;
+  if (a.is_object()) {
+    parts = fmt::format("  seq {:.4f}  para {:.4f}  imb {:.4f} s", a["sequential_overhead_seconds"].get<double>(),
+                        a["parallel_overhead_seconds"].get<double>(),
+                        a["load_imbalance_seconds"].get<double>());
+  }
+  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}\n",
+                     row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
+                     row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
+                     row["time_seconds"]["median"].get<double>(),
+                     row["time_seconds"]["min"].get<double>(),
+                     row["time_seconds"]["max"].get<double>(), parts,
+                     row["verification"]["passed"].get<bool>() ? "PASSED" : "FAILED");
+}
+
+}  // namespace
+
+int run_sweep(const SweepOptions& options) {
+  // Everything that can be wrong with the input is checked before the first run.
+  Scene scene = load_scene(options.scene_file, default_presets_file());
+  if (options.steps) scene.steps = *options.steps;
+  check_memory(scene.simulation, scene.file);
+  if (options.schedulers.empty()) throw std::invalid_argument("--schedulers: no scheduler given");
+  if (options.repeat < 1) throw std::invalid_argument("--repeat: must be at least 1");
+  std::vector<GridScheduler> grid;
+  for (const std::string& spec : options.schedulers) {
+    std::unique_ptr<schedulers::LoopDriver> driver;
+    try {
+      driver = schedulers::make_driver(spec);
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(fmt::format("--schedulers: {}", error.what()));
+    }
+    grid.push_back({spec, driver->name(), driver->note()});
+  }
+  const ThreadBinder binder;
+  const std::vector<int> threads =
+      options.threads.empty() ? default_thread_counts(binder.cores()) : options.threads;
+  for (int n : threads) resolve_threads(n, options.allow_oversubscribe, "--threads");
+  const int hardware = hardware_threads();
+  const std::filesystem::path json_file = options.output_dir / "sweep.json";
+
+  json document;
+  const bool resuming = options.resume && std::filesystem::exists(json_file);
+  if (resuming) document = resumed_document(json_file, scene, scene.steps, options);
+
+  // The reference: the first scheduler on 1 thread, uninstrumented and uncounted.
+  if (!options.quiet) {
+    fmt::print("clothbench sweep: {} ({}), {} steps, {} schedulers x {} thread counts, "
+               "repeat {}, instrument {}, bind {}\n",
+               scene.name, scene.file.string(), scene.steps, grid.size(), threads.size(),
+               options.repeat, to_string(options.instrument), to_string(options.bind));
+    std::fflush(stdout);
+  }
+  std::unique_ptr<kernels::Simulation> reference_simulation;
+  const MeasuredRun reference = fresh_run(scene, *schedulers::make_driver(grid.front().given), 1, scene.steps,
+                                          kernels::Instrumentation::off, nullptr,
+                                          &reference_simulation);
+  const std::string reference_bytes = state_bytes(*reference_simulation);
+  if (resuming && document["reference"]["state_digest"] != reference.state_digest) {
+    throw std::invalid_argument(fmt::format(
+        "--resume: the reference state digest {} differs from {} in {} (different build or "
+        "code); start a new sweep",
+        reference.state_digest, document["reference"]["state_digest"].dump(), json_file.string()));
+  }
+  if (!reference.verification.passed && !options.quiet) {
+    fmt::print("  warning: the reference run itself fails verification: {}\n",
+               reference.verification.failures.front());
+  }
+  if (!resuming) {
+    document = {{"schema", "clothbench.sweep"},
+                {"schema_version", kSweepSchemaVersion},
+                {"created_utc", utc_now()},
+                {"rows", json::array()}};
+  }
+  document["updated_utc"] = utc_now();
+  document["complete"] = false;
+  document["command"] = options.command_line;
+  document["settings"] = settings_json(options, threads, scene.steps);
+  document["scene"] = {{"name", scene.name},
+                       {"file", scene.file.string()},
+                       {"hash", scene.source_sha256_or_fnv},
+                       {"source", scene.source_text}};
+  document["machine"] = machine_context();
+  document["openmp_environment"] = openmp_environment();
+  document["reference"] = {{"scheduler", grid.front().canonical},
+                           {"threads", 1},
+                           {"state_digest", reference.state_digest},
+                           {"state_bytes", reference_bytes.size()},
+                           {"verification_passed", reference.verification.passed}};
+  write_outputs(document, options.output_dir);
+
+  const bool instrumented = options.instrument != kernels::Instrumentation::off;
+  const int runs_per_row = options.repeat * (instrumented ? 2 : 1);
+  const double row_units = options.warmup_steps + static_cast<double>(runs_per_row) * scene.steps;
+  std::size_t to_do = 0;
+  for (const auto& s : grid) {
+    for (int n : threads) to_do += has_row(document, {s.canonical, n}) ? 0 : 1;
+  }
+  ProgressBar progress(row_units * static_cast<double>(to_do), !options.quiet);
+  bool all_passed = true;
+  for (const json& row : document["rows"]) all_passed = all_passed && row["verification"]["passed"].get<bool>();
+
+  for (const GridScheduler& s : grid) {
+    for (int n : threads) {
+      if (has_row(document, {s.canonical, n})) continue;
+      const std::string label = fmt::format("{} x {} threads", s.canonical, n);
+      const auto driver = schedulers::make_driver(s.given);
+      omp_set_num_threads(n);
+      const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
+      if (options.warmup_steps > 0) {
+        fresh_run(scene, *driver, n, std::min(options.warmup_steps, scene.steps),
+                  kernels::Instrumentation::off, nullptr);
+      }
+      progress.advance(options.warmup_steps, label);
+      std::vector<MeasuredRun> plain, timed;
+      for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
+        plain.push_back(fresh_run(scene, *driver, n, scene.steps, kernels::Instrumentation::off,
+                                  &reference_bytes));
+        progress.advance(scene.steps, label);
+        if (instrumented) {
+          timed.push_back(fresh_run(scene, *driver, n, scene.steps, options.instrument,
+                                    &reference_bytes));
+          progress.advance(scene.steps, label);
+        }
+      }
+      json binding = {{"mode", to_string(options.bind)},
+                      {"bound", bound},
+                      {"threads", binder.record_team()}};
+      json row = make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
+                          options.instrument, scene.steps, std::move(binding));
+      all_passed = all_passed && row["verification"]["passed"].get<bool>();
+      document["rows"].push_back(row);
+      write_outputs(document, options.output_dir);  // an interrupted sweep keeps this row
+      if (!options.quiet) {
+        progress.clear();
+        fmt::print("{}", row_line(row));
+        std::fflush(stdout);
+      }
+    }
+  }
+  progress.clear();
+  document["complete"] = true;
+  write_outputs(document, options.output_dir);
+
+  if (options.plots) {
+    if (!gnuplot_available()) {
+      fmt::print(stderr, "clothbench: gnuplot not found; no plots written\n");
+    } else {
+      PlotOutcome figures = plot_sweep(document, options.output_dir);
+      PlotOutcome cloth = plot_cloth(surface_mesh(*reference_simulation),
+                                     fmt::format("{} after {} steps", scene.name, scene.steps),
+                                     options.output_dir);
+      figures.images.insert(figures.images.end(), cloth.images.begin(), cloth.images.end());
+      figures.problems.insert(figures.problems.end(), cloth.problems.begin(), cloth.problems.end());
+      for (const std::string& p : figures.problems) fmt::print(stderr, "clothbench: {}\n", p);
+      if (!options.quiet) {
+        for (const auto& image : figures.images) fmt::print("  wrote {}\n", image.string());
+      }
+    }
+  }
+  if (!options.quiet) {
+    fmt::print("  wrote {}, table.md, table.csv\nVerification: {}\n", json_file.string(),
+               all_passed ? "PASSED" : "FAILED");
+  }
+  return all_passed ? 0 : 1;
+}
+
+}  // namespace clothbench::harness

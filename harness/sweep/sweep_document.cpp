@@ -1,0 +1,254 @@
+// Rows, statistics and validation of the sweep document (see sweep_document.hpp).
+#include "harness/sweep/sweep_document.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <numeric>
+#include <stdexcept>
+
+namespace clothbench::harness {
+
+using nlohmann::json;
+
+std::size_t median_index(const std::vector<double>& values) {
+  if (values.empty()) return 0;
+  std::vector<std::size_t> order(values.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return values[a] < values[b]; });
+  return order[(values.size() - 1) / 2];
+}
+
+json sample_statistics(const std::vector<double>& values) {
+  if (values.empty()) return nullptr;
+  const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
+  return {{"median", values[median_index(values)]}, {"min", *lo}, {"max", *hi}, {"samples", values}};
+}
+
+json accounting_json(const OverheadAccounting& a, std::size_t from_run) {
+  return {{"from_run", from_run},
+          {"wall_seconds", a.wall_seconds},
+          {"step_seconds", a.step_seconds},
+          {"sequential_overhead_seconds", a.sequential_overhead},
+          {"parallel_overhead_seconds", a.parallel_overhead},
+          {"load_imbalance_seconds", a.load_imbalance},
+          {"parallel_work_seconds", a.parallel_work},
+          {"unaccounted_seconds", a.unaccounted},
+          {"imbalance_percent", a.imbalance_percent},
+          {"thread_work_cv", a.thread_work_cv},
+          {"loops", a.loops},
+          {"chunks", a.chunks},
+          {"thread_work_seconds", a.thread_work}};
+}
+
+json make_row(const std::string& scheduler, const std::string& canonical, const std::string& note,
+              int threads, bool oversubscribed, const std::vector<MeasuredRun>& plain,
+              const std::vector<MeasuredRun>& timed, kernels::Instrumentation level, int steps,
+              json binding) {
+  std::vector<double> plain_times, timed_times;
+  for (const MeasuredRun& r : plain) plain_times.push_back(r.accounting.wall_seconds);
+  for (const MeasuredRun& r : timed) timed_times.push_back(r.accounting.wall_seconds);
+
+  json failures = json::array();
+  bool passed = true, identical = true;
+  double max_mass_error = 0.0;
+  std::int64_t iterations = 0;
+  std::string digest;
+  for (const auto* runs : {&plain, &timed}) {
+    for (const MeasuredRun& r : *runs) {
+      passed = passed && r.verification.passed;
+      identical = identical && r.bit_identical;
+      max_mass_error = std::max(max_mass_error, r.mass_error);
+      for (const std::string& f : r.verification.failures) failures.push_back(f);
+      if (digest.empty()) digest = r.state_digest;
+      iterations = r.cg_iterations;
+    }
+  }
+  json instrumented = {{"level", to_string(level)},
+                       {"time_seconds", nullptr},
+                       {"cost_seconds", nullptr},
+                       {"cost_percent", nullptr}};
+  json accounting = nullptr;
+  if (!timed.empty()) {
+    const double plain_median = plain_times[median_index(plain_times)];
+    const std::size_t pick = median_index(timed_times);
+    const double cost = timed_times[pick] - plain_median;
+    instrumented["time_seconds"] = sample_statistics(timed_times);
+    instrumented["cost_seconds"] = cost;
+    instrumented["cost_percent"] = plain_median > 0.0 ? 100.0 * cost / plain_median : 0.0;
+    accounting = accounting_json(timed[pick].accounting, pick);
+  }
+  json row = {{"scheduler", scheduler},
+              {"scheduler_canonical", canonical},
+              {"note", note},
+              {"threads", threads},
+              {"oversubscribed", oversubscribed},
+              {"time_seconds", sample_statistics(plain_times)},
+              {"instrumented", instrumented},
+              {"accounting", accounting},
+              {"verification",
+               {{"passed", passed},
+                {"failures", failures},
+                {"runs", plain.size() + timed.size()},
+                {"bit_identical", identical},
+                {"state_digest", digest},
+                {"max_mass_error", max_mass_error}}},
+              {"cg_iterations", iterations},
+              {"steps", steps},
+              {"binding", std::move(binding)},
+              {"derived",
+               {{"speedup", nullptr},
+                {"efficiency", nullptr},
+                {"speedup_vs_best_1thread", nullptr},
+                {"efficiency_vs_best_1thread", nullptr}}}};
+  check_finite(row, "row");
+  return row;
+}
+
+json settings_json(const SweepOptions& options, const std::vector<int>& threads, int steps) {
+  return {{"schedulers", options.schedulers},
+          {"threads", threads},
+          {"repeat", options.repeat},
+          {"warmup_steps", options.warmup_steps},
+          {"steps", steps},
+          {"instrument", to_string(options.instrument)},
+          {"bind", to_string(options.bind)},
+          {"oversubscribe", options.allow_oversubscribe}};
+}
+
+bool has_row(const json& document, const RowKey& key) {
+  if (!document.contains("rows")) return false;
+  return std::any_of(document["rows"].begin(), document["rows"].end(), [&](const json& row) {
+    return row.value("scheduler_canonical", "") == key.scheduler_canonical &&
+           row.value("threads", 0) == key.threads;
+  });
+}
+
+namespace {
+
+/// Appends a problem when `object[key]` is missing or fails `is_type`.
+template <class Check>
+void expect(const json& object, const std::string& where, const char* key, Check is_type,
+            const char* type, std::vector<std::string>& problems) {
+  if (!object.is_object() || !object.contains(key)) {
+    problems.push_back(fmt::format("{}: missing key '{}'", where, key));
+  } else if (!is_type(object[key])) {
+    problems.push_back(fmt::format("{}.{}: expected {}", where, key, type));
+  }
+}
+
+const auto is_number = [](const json& j) { return j.is_number(); };
+const auto is_number_or_null = [](const json& j) { return j.is_number() || j.is_null(); };
+const auto is_string = [](const json& j) { return j.is_string(); };
+const auto is_bool = [](const json& j) { return j.is_boolean(); };
+const auto is_array = [](const json& j) { return j.is_array(); };
+const auto is_object = [](const json& j) { return j.is_object(); };
+const auto is_object_or_null = [](const json& j) { return j.is_object() || j.is_null(); };
+const auto is_integer = [](const json& j) { return j.is_number_integer(); };
+
+void validate_statistics(const json& s, const std::string& where, std::vector<std::string>& p) {
+  for (const char* k : {"median", "min", "max"}) expect(s, where, k, is_number, "number", p);
+  expect(s, where, "samples", is_array, "array", p);
+  if (p.empty() && !(s["min"] <= s["median"] && s["median"] <= s["max"])) {
+    p.push_back(where + ": min <= median <= max does not hold");
+  }
+}
+
+void validate_row(const json& row, const std::string& w, std::vector<std::string>& p) {
+  expect(row, w, "scheduler", is_string, "string", p);
+  expect(row, w, "scheduler_canonical", is_string, "string", p);
+  expect(row, w, "note", is_string, "string", p);
+  expect(row, w, "threads", is_integer, "integer", p);
+  expect(row, w, "oversubscribed", is_bool, "bool", p);
+  expect(row, w, "time_seconds", is_object, "object", p);
+  expect(row, w, "instrumented", is_object, "object", p);
+  expect(row, w, "accounting", is_object_or_null, "object or null", p);
+  expect(row, w, "verification", is_object, "object", p);
+  expect(row, w, "cg_iterations", is_integer, "integer", p);
+  expect(row, w, "steps", is_integer, "integer", p);
+  expect(row, w, "binding", is_object, "object", p);
+  expect(row, w, "derived", is_object, "object", p);
+  if (!p.empty()) return;
+  validate_statistics(row["time_seconds"], w + ".time_seconds", p);
+  const json& v = row["verification"];
+  expect(v, w + ".verification", "passed", is_bool, "bool", p);
+  expect(v, w + ".verification", "failures", is_array, "array", p);
+  expect(v, w + ".verification", "bit_identical", is_bool, "bool", p);
+  expect(v, w + ".verification", "state_digest", is_string, "string", p);
+  expect(v, w + ".verification", "max_mass_error", is_number, "number", p);
+  for (const char* k : {"speedup", "efficiency", "speedup_vs_best_1thread",
+                        "efficiency_vs_best_1thread"}) {
+    expect(row["derived"], w + ".derived", k, is_number_or_null, "number or null", p);
+  }
+  if (row["accounting"].is_object()) {
+    for (const char* k : {"wall_seconds", "step_seconds", "sequential_overhead_seconds",
+                          "parallel_overhead_seconds", "load_imbalance_seconds",
+                          "parallel_work_seconds", "unaccounted_seconds", "imbalance_percent",
+                          "thread_work_cv"}) {
+      expect(row["accounting"], w + ".accounting", k, is_number, "number", p);
+    }
+    expect(row["accounting"], w + ".accounting", "thread_work_seconds", is_array, "array", p);
+  }
+  const json& b = row["binding"];
+  expect(b, w + ".binding", "mode", is_string, "string", p);
+  expect(b, w + ".binding", "threads", is_array, "array", p);
+}
+
+}  // namespace
+
+std::vector<std::string> validate_sweep_document(const json& d) {
+  if (!d.is_object()) return {"document: expected a JSON object"};
+  std::vector<std::string> version;  // reported, but the structure is still checked
+  if (d.value("schema", "") != "clothbench.sweep") version.push_back("schema: expected \"clothbench.sweep\"");
+  if (d.value("schema_version", 0) != kSweepSchemaVersion) {
+    version.push_back(fmt::format("schema_version: expected {}", kSweepSchemaVersion));
+  }
+  std::vector<std::string> p;
+  for (const char* k : {"created_utc", "updated_utc"}) expect(d, "document", k, is_string, "string", p);
+  expect(d, "document", "complete", is_bool, "bool", p);
+  expect(d, "document", "command", is_array, "array", p);
+  for (const char* k : {"settings", "scene", "machine", "openmp_environment", "reference"}) {
+    expect(d, "document", k, is_object, "object", p);
+  }
+  expect(d, "document", "rows", is_array, "array", p);
+  if (!p.empty()) {
+    p.insert(p.begin(), version.begin(), version.end());
+    return p;
+  }
+  for (const char* k : {"name", "file", "hash", "source"}) expect(d["scene"], "scene", k, is_string, "string", p);
+  expect(d["reference"], "reference", "state_digest", is_string, "string", p);
+  expect(d["settings"], "settings", "schedulers", is_array, "array", p);
+  expect(d["settings"], "settings", "threads", is_array, "array", p);
+  expect(d["settings"], "settings", "steps", is_integer, "integer", p);
+  expect(d["settings"], "settings", "instrument", is_string, "string", p);
+  for (std::size_t i = 0; i < d["rows"].size(); ++i) {
+    validate_row(d["rows"][i], fmt::format("rows[{}]", i), p);
+  }
+  p.insert(p.begin(), version.begin(), version.end());
+  return p;
+}
+
+void check_finite(const json& j, const std::string& path) {
+  if (j.is_number_float() && !std::isfinite(j.get<double>())) {
+    throw std::runtime_error("non-finite value in result field " + path);
+  }
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) check_finite(it.value(), path + "." + it.key());
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i) check_finite(j[i], fmt::format("{}[{}]", path, i));
+  }
+}
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+}  // namespace clothbench::harness
