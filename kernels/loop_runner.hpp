@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "kernels/active_lists.hpp"
@@ -44,34 +45,27 @@ struct LoopTimes {
 
 /// Per-tile partial sums of one reduction, double-buffered: a loop writes one buffer while a
 /// slower thread may still be summing the other from the previous loop on the same array
-/// (consecutive loops are separated by a barrier only at their end). Each thread flips its
-/// own parity, and all threads run the same sequence of loops, so they agree on the buffer.
+/// (consecutive loops are separated by a barrier only at their end). Which buffer is current
+/// is tracked per thread by its LoopRunner; every thread of a team runs the same sequence of
+/// loops, so they all agree.
 template <class Acc>
 class TilePartials {
  public:
-  static constexpr int kMaxThreads = 1024;
   TilePartials() = default;
   explicit TilePartials(std::int64_t tiles) { resize(tiles); }
   void resize(std::int64_t tiles) {
     for (auto& b : buffers_) b.assign(static_cast<std::size_t>(tiles), Acc{});
-    parity_.assign(kMaxThreads, 0);
   }
-  /// The buffer the calling thread's next loop writes (flips the thread's parity).
-  Acc* begin_write(int thread) {
-    std::uint8_t& p = parity_[static_cast<std::size_t>(thread)];
-    p ^= 1u;
-    return buffers_[p].data();
-  }
-  /// Sum over tiles, in tile order, of the buffer the calling thread last wrote.
-  [[nodiscard]] Acc sum(int thread) const {
+  [[nodiscard]] Acc* buffer(int parity) { return buffers_[parity].data(); }
+  /// Sum over tiles, in tile order, of one buffer.
+  [[nodiscard]] Acc sum(int parity) const {
     Acc total{};
-    for (const Acc& a : buffers_[parity_[static_cast<std::size_t>(thread)]]) total += a;
+    for (const Acc& a : buffers_[parity]) total += a;
     return total;
   }
 
  private:
   std::vector<Acc> buffers_[2];
-  std::vector<std::uint8_t> parity_;
 };
 
 /// No reduction: the accumulator of loops that only write element slots.
@@ -95,8 +89,7 @@ class LoopRunner {
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
   template <class Acc, class Body>
   void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body) {
-    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->begin_write(omp_get_thread_num()),
-                  body);
+    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials)), body);
   }
 
   /// Same with no reduction.
@@ -108,13 +101,28 @@ class LoopRunner {
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
   template <class Acc>
   [[nodiscard]] Acc reduce(const TilePartials<Acc>& partials) const {
-    return partials.sum(omp_get_thread_num());
+    return partials.sum(parity(&partials));
   }
 
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
   [[nodiscard]] schedulers::IterationSpace space() const { return driver_.space(); }
 
  private:
+  /// Flips and returns this thread's parity of a partials array (0 after the first flip).
+  int flip(const void* partials) {
+    for (auto& [array, p] : parities_) {
+      if (array == partials) return p ^= 1;
+    }
+    parities_.emplace_back(partials, 0);
+    return 0;
+  }
+  [[nodiscard]] int parity(const void* partials) const {
+    for (const auto& [array, p] : parities_) {
+      if (array == partials) return p;
+    }
+    return 0;
+  }
+
   template <class Acc, class Body>
   void run_loop(ElementKind kind, Acc* partials, Body&& body);
 
@@ -137,6 +145,7 @@ class LoopRunner {
   Instrumentation instrumentation_;
   LoopTimes* times_;
   std::int64_t loop_counter_ = 0;  // identical on all threads: they run the same loops
+  std::vector<std::pair<const void*, int>> parities_;  // buffer in use per partials array
 };
 
 template <class Acc, class Body>
