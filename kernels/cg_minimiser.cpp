@@ -192,7 +192,6 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
     ++report.iterations;
   }
   report.final = current;
-  objective.end_step(run);
   return report;
 }
 

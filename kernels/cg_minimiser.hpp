@@ -42,7 +42,8 @@ struct MinimiserReport {
   }
 };
 
-/// Minimises one step's objective. `first_alpha` carries the first accepted step length from
+/// Minimises one step's objective (begin_step, then CG; the caller decides whether to accept
+/// the result with end_step or to reject it). `first_alpha` carries the first accepted step length from
 /// step to step (in and out; every thread holds its own identical copy).
 /// `stop_requested` (may be null) is polled after each iteration on every thread; it must
 /// return the same answer on every thread (the caller broadcasts it).

@@ -19,7 +19,7 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   prepare_history(run);
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    if (ctx_.is_free(s)) vec3(st.position, s) = vec3(st.target, s);
+    if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s);
   });
   refresh_preconditioner(run);
 }

@@ -64,21 +64,65 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   settings.record_values = config_.solver.record_values;
   StepReport report;
   const double start = monotonic_seconds();
+  const double full_step = config_.time.step;
 #pragma omp parallel
   {
     LoopRunner run(driver, mesh_, lists, instrumentation, times);
     double first_alpha = first_alpha_;
+    MinimiserReport total;
+    int sub_steps = 0, rejected = 0;
 #pragma omp barrier
-    const MinimiserReport r = minimise_step(*objective_, run, settings, first_alpha);
+    // One attempt at step length dt; a rejected attempt (residual above reject_residual or not
+    // finite) leaves the state as it was (end_step not called) and is redone as two half steps.
+    // The velocity carried in target - step_start is rescaled to the new step length.
+    auto attempt = [&](auto& self, double dt, int level) -> void {
+#pragma omp barrier
+#pragma omp single
+      config_.time.step = dt;
+      const MinimiserReport r = minimise_step(*objective_, run, settings, first_alpha);
+      total.iterations += r.iterations;
+      total.evaluations += r.evaluations;
+      total.restarts += r.restarts;
+      total.values.insert(total.values.end(), r.values.begin(), r.values.end());
+      if (sub_steps == 0 && rejected == 0) total.initial = r.initial;
+      const double rms = MinimiserReport::rms(r.final);
+      const bool accept = (std::isfinite(r.final.value) && rms <= config_.solver.reject_residual) ||
+                          level >= config_.solver.max_step_halvings;
+      if (accept) {
+        objective_->end_step(run);
+        total.final = r.final;
+        total.reason = r.reason;
+        ++sub_steps;
+        return;
+      }
+      ++rejected;
+      rescale_velocity(run, 0.5);
+      self(self, 0.5 * dt, level + 1);
+      self(self, 0.5 * dt, level + 1);
+      rescale_velocity(run, 2.0);
+    };
+    attempt(attempt, full_step, 0);
+#pragma omp barrier
     if (omp_get_thread_num() == 0) {
-      report.minimiser = r;
+      report.minimiser = total;
+      report.sub_steps = sub_steps;
+      report.rejected = rejected;
       first_alpha_ = first_alpha;
+      config_.time.step = full_step;
     }
   }
   report.seconds = monotonic_seconds() - start;
   report.step = ++steps_done_;
   report.active_elements = active_elements();
   return report;
+}
+
+void Simulation::rescale_velocity(LoopRunner& run, double factor) {
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    auto target = vec3(state_.target, s);
+    const auto start = vec3(state_.step_start, s);
+    target = start + factor * (target - start);
+  });
 }
 
 Evaluation Simulation::evaluate(schedulers::LoopDriver& driver, bool refresh_history) {

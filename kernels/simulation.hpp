@@ -24,6 +24,8 @@ struct StepReport {
   int step = 0;                 ///< 1-based index of the completed step
   MinimiserReport minimiser;    ///< iterations, evaluations, costs, stop reason
   double seconds = 0.0;         ///< wall time of the step
+  int sub_steps = 1;            ///< accepted sub-steps (more than 1 after a rejection)
+  int rejected = 0;             ///< rejected attempts
   std::int64_t active_elements = 0;  ///< active particles + edges + triples
 };
 
@@ -77,6 +79,9 @@ class Simulation {
 
  private:
   void place_initial_positions();
+  /// target = step_start + factor (target - step_start): the carried velocity for a new step
+  /// length (called by every thread of the step's region).
+  void rescale_velocity(LoopRunner& run, double factor);
 
   SimulationConfig config_;
   FabricMaterial material_;

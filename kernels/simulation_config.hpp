@@ -92,6 +92,10 @@ struct SolverConfig {
   double weight_contact = 1.0;
   /// s_ref of Es as a multiple of Fm (MODEL.md 4A); 0 selects m g / h per unit width.
   double stretch_reference_fm = 1.0e-3;
+  /// A step whose final RMS residual (in units of the weight) exceeds this is rejected and
+  /// redone as two steps of half the length, down to dt / 2^max_step_halvings.
+  double reject_residual = 0.1;
+  int max_step_halvings = 6;
   /// Record the objective after every CG iteration in StepReport (tests and studies).
   bool record_values = false;
   /// Wall-clock budget for minimisation of the whole run, s (0 = none; paper's 500 s mode).

@@ -69,6 +69,22 @@ inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
   return c;
 }
 
+/// The step's initial guess for particle s: the inertial target x~, projected out of any
+/// obstacle to `layer` times the contact distance (a falling particle's x~ can lie deep inside
+/// an obstacle, where the penalty would start the minimisation from a huge residual). The
+/// violation formulation's support switches on at the contact distance, so it projects to
+/// the middle of the layer rather than onto the switch.
+inline Eigen::Vector3d initial_guess(const StepContext& ctx, std::int64_t s, double layer = 1.0) {
+  Eigen::Vector3d x = vec3(ctx.state.target, s);
+  const double d = layer * ctx.config.contact.distance;
+  for (const Obstacle& obstacle : ctx.obstacles) {
+    Eigen::Vector3d n;
+    const double phi = obstacle.signed_distance(x, n);
+    if (phi < d) x += (d - phi) * n;
+  }
+  return x;
+}
+
 /// Stores the inverse of a symmetric 3x3 block as 6 floats (xx xy xz yy yz zz).
 inline void store_symmetric(std::vector<float>& out, std::int64_t s, const Eigen::Matrix3d& m) {
   float* p = out.data() + 6 * s;

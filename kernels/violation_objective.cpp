@@ -48,7 +48,7 @@ void ViolationObjective::begin_step(LoopRunner& run) {
   prepare_history(run);
   // Positions start at the inertial target; forces keep their previous values (warm start).
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    if (ctx_.is_free(s)) vec3(st.position, s) = vec3(st.target, s);
+    if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 0.5);
   });
   refresh_preconditioner(run);
 }

@@ -231,8 +231,10 @@ PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
      << fmt::format("set title {}\n", gnuplot_quote(title + " - coloured by " + label))
      << "set view 58, 32, 1, 1.1\nset view equal xyz\nset xyplane relative 0\n"
      << "set xlabel 'x [m]'\nset ylabel 'y [m]'\nset zlabel 'z [m]' rotate\n"
-     << "set ztics format '%.2f'\n"
-     << "set pm3d depthorder corners2color mean border lc rgb '#00000020' lw 0.3\n"
+     << "set ztics 0.1 format '%.1f'\n"
+     << (surface.quads.size() <= 2500  // mesh lines only where they do not hide the colours
+             ? "set pm3d depthorder corners2color mean border lc rgb '#00000020' lw 0.3\n"
+             : "set pm3d depthorder corners2color mean noborder\n")
      << "set palette rgb 33,13,10\n"
      << fmt::format("set cblabel {}\n", gnuplot_quote(label))
      << "unset key\nset grid\n"

@@ -136,11 +136,15 @@ std::string format_markdown(const json& document) {
       settings.value("warmup_steps", 0), settings["instrument"].get<std::string>(),
       settings.value("bind", "none"), document.value("complete", false) ? "" : " (INCOMPLETE sweep)");
   if (machine.is_object() && machine.contains("cpu")) {
-    out << fmt::format("Machine: {} ({} cores, {} PUs), {} {}, {}.\n",
+    const json& load = machine.value("load_average", json::array());
+    out << fmt::format("Machine: {} ({} cores, {} PUs), {} {}, {}{}.\n",
                        machine["cpu"].value("model", "?"), machine["cpu"].value("cores", 0),
                        machine["cpu"].value("pus", 0), machine["compiler"].value("id", "?"),
                        machine["compiler"].value("version", "?"),
-                       machine["openmp"]["runtime"].value("name", "?"));
+                       machine["openmp"]["runtime"].value("name", "?"),
+                       load.empty() ? std::string()
+                                    : fmt::format("; load average {:.2f} at the start",
+                                                  load[0].get<double>()));
   }
   for (const auto& group : grouped_rows(document)) {
     const json& first = *group.front();

@@ -4,6 +4,7 @@
 #include <fmt/core.h>
 
 #include <cmath>
+#include <cstdio>
 
 namespace clothbench::harness {
 
@@ -43,17 +44,21 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                       m.final.residual_max,
                       kernels::to_string(m.reason),
                       report.seconds,
-                      report.active_elements};
+                      report.active_elements,
+                      report.sub_steps};
     summary.steps.push_back(record);
     summary.wall_seconds += report.seconds;
     summary.total_iterations += m.iterations;
     summary.total_evaluations += m.evaluations;
+    summary.rejected_steps += report.rejected;
     cost_sum += m.final.cost / static_cast<double>(std::max<std::int64_t>(1, report.active_elements));
     if (!quiet) {
       fmt::print("  step {:4d}  iterations {:4d}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
-                 " max {:9.3e}  {:>7.3f} s  {}\n",
+                 " max {:9.3e}  {:>7.3f} s  {}{}\n",
                  record.step, record.iterations, record.evaluations, record.cost,
-                 record.residual_rms, record.residual_max, record.seconds, record.stop);
+                 record.residual_rms, record.residual_max, record.seconds, record.stop,
+                 record.sub_steps > 1 ? fmt::format(" ({} sub-steps)", record.sub_steps) : "");
+      std::fflush(stdout);  // progress is visible when stdout is a file or a pipe
     }
     if (!std::isfinite(m.final.value) || !std::isfinite(m.final.cost)) {
       summary.verification.fail(fmt::format("step {}: non-finite cost", record.step));
@@ -74,6 +79,7 @@ void print_summary(const RunSummary& s) {
   fmt::print("  steps                    {}\n", s.steps.size());
   fmt::print("  CG iterations            {} ({} evaluations)\n", s.total_iterations,
              s.total_evaluations);
+  fmt::print("  rejected steps           {} (redone as shorter sub-steps)\n", s.rejected_steps);
   fmt::print("  average minimised cost   {:.6e} (final E per active element, mean over steps)\n",
              s.average_minimised_cost);
   fmt::print("  contact force / weight   {:.6f} ({:.6g} N of {:.6g} N)\n",
@@ -104,7 +110,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                      {"residual_max", r.residual_max},
                      {"stop", r.stop},
                      {"seconds", r.seconds},
-                     {"active_elements", r.active_elements}});
+                     {"active_elements", r.active_elements},
+                     {"sub_steps", r.sub_steps}});
   }
   const kernels::StateDiagnostics& d = s.final_state;
   nlohmann::json doc = {
@@ -118,6 +125,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"average_minimised_cost", s.average_minimised_cost},
       {"cg_iterations", s.total_iterations},
       {"evaluations", s.total_evaluations},
+      {"rejected_steps", s.rejected_steps},
       {"contact_support_n", d.contact_support},
       {"weight_n", d.weight},
       {"min_particle_distance_m", d.min_particle_distance},

@@ -33,6 +33,7 @@ struct StepRecord {
   std::string stop;
   double seconds = 0.0;
   std::int64_t active_elements = 0;
+  int sub_steps = 1;  ///< accepted sub-steps (rejected steps are redone with half the length)
 };
 
 /// Everything a run measured.
@@ -44,6 +45,7 @@ struct RunSummary {
   double mass_error = 0.0;               ///< |total mass - density W H| / (density W H)
   std::int64_t total_iterations = 0;
   std::int64_t total_evaluations = 0;
+  std::int64_t rejected_steps = 0;
   int threads = 1;
   bool oversubscribed = false;
   std::uint64_t peak_resident_bytes = 0;

@@ -159,6 +159,13 @@ int run_sweep(const SweepOptions& options) {
                        {"source", scene.source_text}};
   document["machine"] = machine_context();
   document["openmp_environment"] = openmp_environment();
+  if (const json& load = document["machine"]["load_average"];
+      !load.empty() && load[0].get<double>() > 0.5 && !options.quiet) {
+    fmt::print(stderr,
+               "clothbench: warning: load average {:.2f} on {} hardware threads - other "
+               "processes compete for the cores and the timings will show it\n",
+               load[0].get<double>(), hardware);
+  }
   document["reference"] = {{"scheduler", grid.front().canonical},
                            {"threads", 1},
                            {"state_digest", reference.state_digest},

@@ -157,7 +157,16 @@ void validate_statistics(const json& s, const std::string& where, std::vector<st
   }
 }
 
-void validate_row(const json& row, const std::string& w, std::vector<std::string>& p) {
+void validate_row_into(const json& row, const std::string& w, std::vector<std::string>& p);
+
+/// Appends the problems of one row to `all`.
+void validate_row(const json& row, const std::string& w, std::vector<std::string>& all) {
+  std::vector<std::string> p;
+  validate_row_into(row, w, p);
+  all.insert(all.end(), p.begin(), p.end());
+}
+
+void validate_row_into(const json& row, const std::string& w, std::vector<std::string>& p) {
   expect(row, w, "scheduler", is_string, "string", p);
   expect(row, w, "scheduler_canonical", is_string, "string", p);
   expect(row, w, "note", is_string, "string", p);

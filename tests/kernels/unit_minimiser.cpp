@@ -10,6 +10,7 @@ TEST(Minimiser, ObjectiveNeverIncreasesWithinAStep) {
   for (bool preconditioner : {true, false}) {
     kernels::SimulationConfig c = testing::small_cloth(true, true);
     c.solver.record_values = true;
+    c.solver.reject_residual = 1e300;  // one attempt per step: this test is about CG alone
     c.solver.preconditioner = preconditioner;
     c.solver.tolerance = 1e-6;
     c.solver.max_iterations = 300;
@@ -34,6 +35,7 @@ TEST(Minimiser, ConvergesToTheToleranceOnASmallStep) {
   kernels::SimulationConfig c = testing::small_cloth(false, true);
   c.solver.tolerance = 1e-6;
   c.solver.max_iterations = 2000;
+  c.solver.reject_residual = 1e300;
   kernels::Simulation sim(c);
   schedulers::OmpStaticDriver driver;
   for (int step = 0; step < 5; ++step) {
@@ -41,6 +43,28 @@ TEST(Minimiser, ConvergesToTheToleranceOnASmallStep) {
     EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
     EXPECT_LE(kernels::MinimiserReport::rms(r.minimiser.final), 1e-6);
   }
+}
+
+}  // namespace
+}  // namespace clothbench
+
+namespace clothbench {
+namespace {
+
+TEST(StepRejection, AStepAboveTheResidualLimitIsRedoneAsHalfSteps) {
+  kernels::SimulationConfig c = testing::small_cloth(true, true);
+  c.solver.max_iterations = 3;        // too few to converge a full step ...
+  c.solver.reject_residual = 1e-3;    // ... so it is rejected and halved
+  c.solver.max_step_halvings = 2;
+  kernels::Simulation sim(c);
+  testing::randomise_state(sim, 7);
+  schedulers::OmpStaticDriver driver;
+  const kernels::StepReport r = sim.step(driver);
+  EXPECT_GT(r.rejected, 0);
+  EXPECT_GT(r.sub_steps, 1);
+  EXPECT_LE(r.sub_steps, 4);  // at most two halvings
+  EXPECT_EQ(sim.config().time.step, c.time.step) << "the step length is restored";
+  EXPECT_TRUE(sim.diagnostics().finite);
 }
 
 }  // namespace
