@@ -2,6 +2,7 @@
 #include "kernels/cloth_mesh.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace clothbench::kernels {
@@ -113,9 +114,15 @@ void ClothMesh::update_reference_geometry() {
 }
 
 double ClothMesh::total_mass() const {
-  double total = 0.0;
-  for (double m : mass) total += m;
-  return total;
+  // Neumaier-compensated: a plain sum of 10^6 masses drifts by ~1e-12 relative, which would
+  // hide a real mass error of that size.
+  double total = 0.0, compensation = 0.0;
+  for (double m : mass) {
+    const double t = total + m;
+    compensation += std::abs(total) >= std::abs(m) ? (total - t) + m : (m - t) + total;
+    total = t;
+  }
+  return total + compensation;
 }
 
 }  // namespace clothbench::kernels
