@@ -197,9 +197,15 @@ int hardware_threads() {
 }
 
 std::uint64_t total_memory_bytes() {
-  const Topology topology;
-  const std::uint64_t bytes = topology.total_memory();
-  return bytes > 0 ? bytes : sysconf_memory();
+  // The kernel's count of physical pages is the memory a run can have; hwloc's NUMA figure can
+  // be smaller on virtual machines (seen: 5.85 GB of 24 GB) and is only the fallback. A cgroup
+  // limit, when set, caps it.
+  std::uint64_t bytes = sysconf_memory();
+  if (bytes == 0) bytes = Topology().total_memory();
+  std::ifstream limit("/sys/fs/cgroup/memory.max");
+  std::uint64_t cap = 0;
+  if (limit >> cap && cap > 0 && cap < bytes) bytes = cap;
+  return bytes;
 }
 
 nlohmann::json machine_context() {
@@ -237,7 +243,7 @@ nlohmann::json machine_context() {
       {"hwloc_api_version", fmt::format("{}.{}.{}", api >> 16, (api >> 8) & 0xff, api & 0xff)},
   };
   const std::uint64_t memory = topology.total_memory();
-  context["memory"] = {{"total_bytes", memory > 0 ? memory : sysconf_memory()}};
+  context["memory"] = {{"total_bytes", total_memory_bytes()}, {"hwloc_numa_bytes", memory}};
   std::array<double, 3> load{};
   context["load_average"] =
       getloadavg(load.data(), 3) == 3 ? nlohmann::json(load) : nlohmann::json::array();
