@@ -123,12 +123,14 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
   return term;
 }
 
-/// Gathers, for particle s, the elastic gradient from the scratch arrays written by the
-/// element loops: every edge and triple that touches s, in a fixed order.
-/// `x(slot)` gives positions; edge_scratch / triple_scratch as in ClothState.
-template <class Positions>
-inline Eigen::Vector3d gather_elastic_gradient(const ClothMesh& mesh, const ClothState& state,
-                                               std::int64_t s, const Positions& x) {
+/// The elastic part of a particle's gradient (= -F_s, MODEL.md 2):
+/// sum_e t_e w_e dl/dx_s + sum_t M_t w_t dtheta/dx_s over every edge and triple touching s,
+/// in a fixed order, with the element coefficients given by callables:
+/// edge(id) = w t / l and triple(id) = {w M A, w M Bc, w M C}.
+template <class Positions, class EdgeCoefficient, class TripleCoefficients>
+inline Eigen::Vector3d gather_elastic(const ClothMesh& mesh, std::int64_t s, const Positions& x,
+                                      const EdgeCoefficient& edge,
+                                      const TripleCoefficients& triple) {
   Eigen::Vector3d g = Eigen::Vector3d::Zero();
   const Eigen::Vector3d xs = x(s);
   for (int d = 0; d < 2; ++d) {
@@ -136,30 +138,38 @@ inline Eigen::Vector3d gather_elastic_gradient(const ClothMesh& mesh, const Clot
     const std::int32_t n = mesh.next[id], p = mesh.prev[id];
     if (n >= 0) {
       const Eigen::Vector3d xn = x(n);
-      if (mesh.edge_active[id]) g -= state.edge_scratch[id] * (xn - xs);
-      const std::int64_t tn = element_id(n, d);  // triple centred on the next node: s is its a
+      if (mesh.edge_active[id]) g -= edge(id) * (xn - xs);
+      const std::int64_t tn = element_id(n, d);
       if (mesh.triple_active[tn] && mesh.prev[tn] == s) {
-        const double* k = &state.triple_scratch[3 * tn];
+        const Eigen::Vector3d k = triple(tn);
         g += -k[0] * (xn - xs) + k[1] * (x(mesh.next[tn]) - xn);
       }
     }
     if (p >= 0) {
       const Eigen::Vector3d xp = x(p);
       const std::int64_t ep = element_id(p, d);
-      if (mesh.edge_active[ep] && mesh.next[ep] == s) g += state.edge_scratch[ep] * (xs - xp);
-      const std::int64_t tp = ep;  // triple centred on the previous node: s is its b
-      if (mesh.triple_active[tp] && mesh.next[tp] == s) {
-        const double* k = &state.triple_scratch[3 * tp];
-        g += -k[1] * (xp - x(mesh.prev[tp])) + k[2] * (xs - xp);
+      if (mesh.edge_active[ep] && mesh.next[ep] == s) g += edge(ep) * (xs - xp);
+      if (mesh.triple_active[ep] && mesh.next[ep] == s) {
+        const Eigen::Vector3d k = triple(ep);
+        g += -k[1] * (xp - x(mesh.prev[ep])) + k[2] * (xs - xp);
       }
     }
-    if (mesh.triple_active[id]) {  // triple centred on s
-      const double* k = &state.triple_scratch[3 * id];
+    if (mesh.triple_active[id]) {
+      const Eigen::Vector3d k = triple(id);
       const Eigen::Vector3d e1 = xs - x(p), e2 = x(n) - xs;
       g += (k[0] + k[1]) * e1 - (k[1] + k[2]) * e2;
     }
   }
   return g;
+}
+
+/// gather_elastic with the coefficients the element loops wrote to the scratch arrays.
+template <class Positions>
+inline Eigen::Vector3d gather_elastic_gradient(const ClothMesh& mesh, const ClothState& state,
+                                               std::int64_t s, const Positions& x) {
+  return gather_elastic(
+      mesh, s, x, [&](std::int64_t id) { return state.edge_scratch[id]; },
+      [&](std::int64_t id) { return Eigen::Vector3d(&state.triple_scratch[3 * id]); });
 }
 
 }  // namespace clothbench::kernels

@@ -195,14 +195,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
 
 double PotentialObjective::update_direction(LoopRunner& run, double beta) {
   ClothState& st = ctx_.state;
-  run.for_each<ScalarSum>(ElementKind::particles, &scalar_partials_,
-                          [&](std::int64_t s, ScalarSum& acc) {
-                            const Eigen::Vector3d g = vec3(st.gradient, s);
-                            auto dir = vec3(st.direction, s);
-                            dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
-                            vec3(st.gradient_old, s) = g;
-                            acc.value += dir.dot(g);
-                          });
+  update_position_direction(run, st, beta, scalar_partials_);
   return run.reduce(scalar_partials_).value;
 }
 

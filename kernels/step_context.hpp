@@ -10,6 +10,7 @@
 #include "kernels/cloth_state.hpp"
 #include "kernels/element_geometry.hpp"
 #include "kernels/kes_material.hpp"
+#include "kernels/loop_runner.hpp"
 #include "kernels/obstacle.hpp"
 #include "kernels/simulation_config.hpp"
 
@@ -101,6 +102,29 @@ inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_
   const float* p = in.data() + 6 * s;
   return {p[0] * g.x() + p[1] * g.y() + p[2] * g.z(), p[1] * g.x() + p[3] * g.y() + p[4] * g.z(),
           p[2] * g.x() + p[4] * g.y() + p[5] * g.z()};
+}
+
+/// Per-tile sum of one scalar (energies, dot products).
+struct ScalarSum {
+  double value = 0.0;
+  ScalarSum& operator+=(const ScalarSum& o) {
+    value += o.value;
+    return *this;
+  }
+};
+
+/// The position part of a CG direction update, shared by both formulations:
+/// direction = -P^-1 g + beta direction and gradient_old = g for every particle; the per-tile
+/// sums of direction . g go to `partials`.
+inline void update_position_direction(LoopRunner& run, ClothState& st, double beta,
+                                      TilePartials<ScalarSum>& partials) {
+  run.for_each<ScalarSum>(ElementKind::particles, &partials, [&](std::int64_t s, ScalarSum& acc) {
+    const Eigen::Vector3d g = vec3(st.gradient, s);
+    auto dir = vec3(st.direction, s);
+    dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
+    vec3(st.gradient_old, s) = g;
+    acc.value += dir.dot(g);
+  });
 }
 
 }  // namespace clothbench::kernels

@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "kernels/loop_runner.hpp"
+#include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
 
@@ -40,15 +41,6 @@ struct GatherSums {
     grad_dot_z += o.grad_dot_z;
     grad_old_dot_z += o.grad_old_dot_z;
     free_particles += o.free_particles;
-    return *this;
-  }
-};
-
-/// Per-tile sum of one scalar (energies, dot products).
-struct ScalarSum {
-  double value = 0.0;
-  ScalarSum& operator+=(const ScalarSum& o) {
-    value += o.value;
     return *this;
   }
 };

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "kernels/potential_elements.hpp"
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
@@ -161,46 +162,6 @@ inline TripleViolation triple_violation(const StepContext& ctx, std::int64_t id,
   tv.band = band_violation(ctx.material.bending[element_direction(id)], moment,
                            tv.angle.theta / mesh.triple_rest[id]);
   return tv;
-}
-
-/// The elastic part of a particle's Newton residual, -F_s = sum_e t_e w_e dl/dx_s +
-/// sum_t M_t w_t dtheta/dx_s, with the element coefficients given by callables:
-/// edge(id) = w t / l and triple(id) = {w M A, w M Bc, w M C}. Same neighbour pattern and
-/// formula as gather_elastic_gradient (potential_elements.hpp), which reads them from scratch.
-template <class Positions, class EdgeCoefficient, class TripleCoefficients>
-inline Eigen::Vector3d gather_elastic(const ClothMesh& mesh, std::int64_t s, const Positions& x,
-                                      const EdgeCoefficient& edge,
-                                      const TripleCoefficients& triple) {
-  Eigen::Vector3d g = Eigen::Vector3d::Zero();
-  const Eigen::Vector3d xs = x(s);
-  for (int d = 0; d < 2; ++d) {
-    const std::int64_t id = element_id(s, d);
-    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-    if (n >= 0) {
-      const Eigen::Vector3d xn = x(n);
-      if (mesh.edge_active[id]) g -= edge(id) * (xn - xs);
-      const std::int64_t tn = element_id(n, d);
-      if (mesh.triple_active[tn] && mesh.prev[tn] == s) {
-        const Eigen::Vector3d k = triple(tn);
-        g += -k[0] * (xn - xs) + k[1] * (x(mesh.next[tn]) - xn);
-      }
-    }
-    if (p >= 0) {
-      const Eigen::Vector3d xp = x(p);
-      const std::int64_t ep = element_id(p, d);
-      if (mesh.edge_active[ep] && mesh.next[ep] == s) g += edge(ep) * (xs - xp);
-      if (mesh.triple_active[ep] && mesh.next[ep] == s) {
-        const Eigen::Vector3d k = triple(ep);
-        g += -k[1] * (xp - x(mesh.prev[ep])) + k[2] * (xs - xp);
-      }
-    }
-    if (mesh.triple_active[id]) {
-      const Eigen::Vector3d k = triple(id);
-      const Eigen::Vector3d e1 = xs - x(p), e2 = x(n) - xs;
-      g += (k[0] + k[1]) * e1 - (k[1] + k[2]) * e2;
-    }
-  }
-  return g;
 }
 
 /// Newton residual r_s = m (x_s - x~_s)/dt^2 - m g - F_s of free particle s, computed from

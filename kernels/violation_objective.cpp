@@ -390,14 +390,7 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
 
 double ViolationObjective::update_direction(LoopRunner& run, double beta) {
   ClothState& st = ctx_.state;
-  run.for_each<ScalarSum>(ElementKind::particles, &particle_dir_partials_,
-                          [&](std::int64_t s, ScalarSum& acc) {
-                            const Eigen::Vector3d g = vec3(st.gradient, s);
-                            auto dir = vec3(st.direction, s);
-                            dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
-                            vec3(st.gradient_old, s) = g;
-                            acc.value += dir.dot(g);
-                          });
+  update_position_direction(run, st, beta, particle_dir_partials_);
   auto scalar_update = [&](std::vector<double>& gradient, std::vector<double>& old,
                            std::vector<double>& direction, const std::vector<double>& inverse,
                            std::int64_t id, ScalarSum& acc) {
