@@ -25,6 +25,9 @@ void build_list(const ClothMesh& mesh, ElementKind kind, ListBuild build, Elemen
   const std::int64_t tiles = mesh.tile_count();
   const int per_slot = ids_per_slot(kind);
   list.tile_begin.assign(static_cast<std::size_t>(tiles + 1), 0);
+  // Capacity for every element of the finest mesh, taken once: later rebuilds never move the
+  // list (untouched capacity costs address space, not resident memory).
+  list.entries.reserve(static_cast<std::size_t>(per_slot * mesh.slot_count()));
   auto count_tile = [&](std::int64_t t) {
     std::int64_t count = 0;
     for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {

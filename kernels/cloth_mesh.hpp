@@ -25,7 +25,18 @@ enum ParticleFlag : std::uint8_t {
   kParticleActive = 1,  ///< simulated (an unknown unless pinned)
   kParticleGhost = 2,   ///< on a fine/coarse boundary: midpoint of its coarse edge, not simulated
   kParticlePinned = 4,  ///< active but held fixed
+  kGhostAlongI = 8,     ///< a ghost on a coarse edge along i: its parents are prev/next along d = 0
+  kGhostAlongJ = 16,    ///< a ghost on a coarse edge along j: its parents are prev/next along d = 1
 };
+
+/// Grid direction along which ghost `flags` hangs (its parents are prev/next along it), or -1.
+constexpr int ghost_direction(std::uint8_t flags) {
+  return (flags & kGhostAlongI) != 0 ? 0 : (flags & kGhostAlongJ) != 0 ? 1 : -1;
+}
+/// True for particles and ghosts: the nodes edges and triples may join.
+constexpr bool is_node(std::uint8_t flags) {
+  return (flags & (kParticleActive | kParticleGhost)) != 0;
+}
 
 /// Index of the edge or triple of direction `d` owned by slot `slot`.
 constexpr std::int64_t element_id(std::int64_t slot, int d) { return 2 * slot + d; }
@@ -70,6 +81,10 @@ class ClothMesh {
   /// active set and neighbour indices (used after AMRC changes them).
   void update_reference_geometry();
 
+  /// Ghost particles in the current active set (0 on a uniform mesh: ghost loops are skipped).
+  [[nodiscard]] std::int64_t ghost_count() const { return ghost_count_; }
+  void set_ghost_count(std::int64_t n) { ghost_count_ = n; }
+
   // --- storage (public arrays: the kernels index them directly in hot loops) --------------
   std::vector<std::int32_t> slot_of_grid;     ///< I*J, row-major (i, j) -> slot
   std::vector<std::int64_t> tile_slot_begin;  ///< tiles+1: first slot of each tile
@@ -91,6 +106,7 @@ class ClothMesh {
   int block_size_;
   double spacing_[2];
   double areal_density_;
+  std::int64_t ghost_count_ = 0;
   std::vector<std::int32_t> grid_i_;
   std::vector<std::int32_t> grid_j_;
 };

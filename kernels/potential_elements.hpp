@@ -5,6 +5,7 @@
 
 #include <type_traits>
 
+#include "kernels/ghost_nodes.hpp"
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
@@ -127,10 +128,12 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
 /// sum_e t_e w_e dl/dx_s + sum_t M_t w_t dtheta/dx_s over every edge and triple touching s,
 /// in a fixed order, with the element coefficients given by callables:
 /// edge(id) = w t / l and triple(id) = {w M A, w M Bc, w M C}.
+/// On an adaptive mesh the sum also takes half of what every ghost hanging on s receives
+/// (ghost_nodes.hpp): the chain rule through the ghost's midpoint position.
 template <class Positions, class EdgeCoefficient, class TripleCoefficients>
-inline Eigen::Vector3d gather_elastic(const ClothMesh& mesh, std::int64_t s, const Positions& x,
-                                      const EdgeCoefficient& edge,
-                                      const TripleCoefficients& triple) {
+inline Eigen::Vector3d gather_elastic_at(const ClothMesh& mesh, std::int64_t s, const Positions& x,
+                                         const EdgeCoefficient& edge,
+                                         const TripleCoefficients& triple) {
   Eigen::Vector3d g = Eigen::Vector3d::Zero();
   const Eigen::Vector3d xs = x(s);
   for (int d = 0; d < 2; ++d) {
@@ -161,6 +164,14 @@ inline Eigen::Vector3d gather_elastic(const ClothMesh& mesh, std::int64_t s, con
     }
   }
   return g;
+}
+
+template <class Positions, class EdgeCoefficient, class TripleCoefficients>
+inline Eigen::Vector3d gather_elastic(const ClothMesh& mesh, std::int64_t s, const Positions& x,
+                                      const EdgeCoefficient& edge,
+                                      const TripleCoefficients& triple) {
+  return with_ghost_children(
+      mesh, s, [&](std::int64_t k) { return gather_elastic_at(mesh, k, x, edge, triple); });
 }
 
 /// gather_elastic with the coefficients the element loops wrote to the scratch arrays.

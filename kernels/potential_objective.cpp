@@ -3,6 +3,9 @@
 #include "kernels/potential_objective.hpp"
 
 #include <Eigen/LU>
+#include <algorithm>
+#include <utility>
+#include <vector>
 
 #include "kernels/potential_elements.hpp"
 
@@ -21,6 +24,7 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
     if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s);
   });
+  refresh_ghosts(run, ctx_.mesh, st.position);
   refresh_preconditioner(run);
 }
 
@@ -87,28 +91,55 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
 double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
+  // The nodes that move with s: s itself and the ghosts hanging on it (recursively), each by
+  // its interpolation weight; the energy is summed over every element touching one of them,
+  // each element once.
+  thread_local std::vector<std::pair<std::int64_t, double>> movers;
+  thread_local std::vector<std::int64_t> edges, triples;
+  movers.assign(1, {s, 1.0});
+  for (std::size_t k = 0; k < movers.size(); ++k) {
+    for_each_ghost_child(mesh, movers[k].first, [&](std::int64_t child) {
+      for (const auto& m : movers) {
+        if (m.first == child) return;
+      }
+      movers.emplace_back(child, ghost_weight(mesh, child, s));
+    });
+  }
+  const Eigen::Vector3d shift = xs - vec3(st.position, s);
   auto x = [&](std::int64_t k) -> Eigen::Vector3d {
-    return k == s ? xs : Eigen::Vector3d(vec3(st.position, k));
+    for (const auto& [node, weight] : movers) {
+      if (node == k) return k == s ? xs : Eigen::Vector3d(vec3(st.position, k) + weight * shift);
+    }
+    return vec3(st.position, k);
   };
+  edges.clear();
+  triples.clear();
+  for (const auto& mover : movers) {
+    const std::int64_t k = mover.first;
+    for (int d = 0; d < 2; ++d) {
+      const std::int64_t id = element_id(k, d);
+      const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+      if (mesh.edge_active[id]) edges.push_back(id);
+      if (mesh.triple_active[id]) triples.push_back(id);
+      if (p >= 0 && mesh.next[element_id(p, d)] == k) {
+        if (mesh.edge_active[element_id(p, d)]) edges.push_back(element_id(p, d));
+        if (mesh.triple_active[element_id(p, d)]) triples.push_back(element_id(p, d));
+      }
+      if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == k) {
+        triples.push_back(element_id(n, d));
+      }
+    }
+  }
+  for (auto* list : {&edges, &triples}) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
   const double dt = ctx_.config.time.step, m = mesh.mass[s];
   double energy = 0.5 * m / (dt * dt) * (xs - vec3(st.target, s)).squaredNorm() -
                   m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
                   contact_penalty(ctx_, s, xs).energy;
-  for (int d = 0; d < 2; ++d) {
-    const std::int64_t id = element_id(s, d);
-    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-    if (mesh.edge_active[id]) energy += edge_term(ctx_, id, x).energy;
-    if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
-      energy += edge_term(ctx_, element_id(p, d), x).energy;
-    }
-    if (mesh.triple_active[id]) energy += triple_term(ctx_, id, x).energy;
-    if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
-      energy += triple_term(ctx_, element_id(n, d), x).energy;
-    }
-    if (p >= 0 && mesh.triple_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
-      energy += triple_term(ctx_, element_id(p, d), x).energy;
-    }
-  }
+  for (std::int64_t id : edges) energy += edge_term(ctx_, id, x).energy;
+  for (std::int64_t id : triples) energy += triple_term(ctx_, id, x).energy;
   return energy;
 }
 
@@ -204,6 +235,7 @@ void PotentialObjective::move(LoopRunner& run, double delta) {
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
     vec3(st.position, s) += delta * vec3(st.direction, s);
   });
+  refresh_ghosts(run, ctx_.mesh, st.position);
 }
 
 void PotentialObjective::prepare_history(LoopRunner& run) {

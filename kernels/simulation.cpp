@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
 
 #include "kernels/potential_objective.hpp"
 #include "kernels/step_context.hpp"
@@ -21,6 +22,15 @@ Simulation::Simulation(const SimulationConfig& config)
   for (const ObstacleConfig& o : config_.obstacles) obstacles_.emplace_back(o);
   state_.allocate(mesh_.slot_count());
   place_initial_positions();
+  if (config_.amrc.enabled) {
+    if (config_.solver.formulation == Formulation::violation &&
+        config_.solver.gradient == GradientMode::numeric) {
+      throw std::invalid_argument(
+          "the numeric gradient of the violation formulation is not available with AMRC "
+          "(ghost particles); use the analytic gradient or the potential formulation");
+    }
+    amrc_ = std::make_unique<AdaptiveMesh>(mesh_, config_.amrc.levels);
+  }
   const StepContext ctx{mesh_, material_, obstacles_, config_, state_};
   if (config_.solver.formulation == Formulation::violation) {
     objective_ = std::make_unique<ViolationObjective>(ctx);
@@ -53,10 +63,7 @@ void Simulation::place_initial_positions() {
 
 StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation instrumentation,
                             LoopTimes* times) {
-  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) {
-    lists_.rebuild(mesh_);
-    lists_built_ = true;
-  }
+  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) rebuild_lists();
   const ActiveLists* lists = lists_built_ ? &lists_ : nullptr;
   MinimiserSettings settings;
   settings.tolerance = config_.solver.tolerance;
@@ -114,7 +121,41 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   report.seconds = monotonic_seconds() - start;
   report.step = ++steps_done_;
   report.active_elements = active_elements();
+  if (amrc_ && config_.amrc.check_every > 0 && steps_done_ % config_.amrc.check_every == 0) {
+    report.amrc = adapt();
+  }
   return report;
+}
+
+AmrcEvent Simulation::adapt() {
+  if (!amrc_) throw std::logic_error("Simulation::adapt: AMRC is off for this scene");
+  AmrcEvent event = amrc_->run_event(steps_done_, config_.amrc, mesh_, state_);
+  if (event.changed() && lists_built_) event.list_seconds = rebuild_lists();
+  return event;
+}
+
+double Simulation::rebuild_lists() {
+  const double start = monotonic_seconds();
+  lists_.rebuild(mesh_, list_build_);
+  lists_built_ = true;
+  return monotonic_seconds() - start;
+}
+
+AdaptiveMesh& Simulation::begin_tree_edit() {
+  if (!amrc_) throw std::logic_error("Simulation::begin_tree_edit: AMRC is off for this scene");
+  amrc_->begin_change(mesh_, state_);
+  return *amrc_;
+}
+
+void Simulation::end_tree_edit() {
+  amrc_->finish_change(mesh_, state_);
+  if (lists_built_) rebuild_lists();
+}
+
+std::vector<double> Simulation::surface_positions() const {
+  std::vector<double> x = state_.position;
+  if (amrc_) amrc_->interpolate_inactive(mesh_, x);
+  return x;
 }
 
 void Simulation::rescale_velocity(LoopRunner& run, double factor) {
@@ -126,15 +167,15 @@ void Simulation::rescale_velocity(LoopRunner& run, double factor) {
 }
 
 Evaluation Simulation::evaluate(schedulers::LoopDriver& driver, bool refresh_history) {
-  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) {
-    lists_.rebuild(mesh_);
-    lists_built_ = true;
-  }
+  if (driver.space() == schedulers::IterationSpace::active && !lists_built_) rebuild_lists();
   Evaluation result;
 #pragma omp parallel
   {
     LoopRunner run(driver, mesh_, lists_built_ ? &lists_ : nullptr, Instrumentation::off, nullptr);
-    if (refresh_history) objective_->prepare_history(run);
+    if (refresh_history) {
+      refresh_ghosts(run, mesh_, state_.position);
+      objective_->prepare_history(run);
+    }
     const Evaluation e = objective_->evaluate(run);
     if (omp_get_thread_num() == 0) result = e;
   }
@@ -153,6 +194,14 @@ std::int64_t Simulation::active_elements() const {
 
 std::vector<std::array<std::int32_t, 4>> Simulation::surface_quads() const {
   std::vector<std::array<std::int32_t, 4>> quads;
+  if (amrc_) {
+    for (const TreeCell& c : amrc_->leaves()) {
+      const int size = 1 << c.level, i = c.ci * size, j = c.cj * size;
+      quads.push_back({mesh_.slot(i, j), mesh_.slot(i + size, j), mesh_.slot(i + size, j + size),
+                       mesh_.slot(i, j + size)});
+    }
+    return quads;
+  }
   quads.reserve(static_cast<std::size_t>(mesh_.size_i() - 1) * (mesh_.size_j() - 1));
   for (int i = 0; i + 1 < mesh_.size_i(); ++i) {
     for (int j = 0; j + 1 < mesh_.size_j(); ++j) {
@@ -227,6 +276,7 @@ std::vector<double> Simulation::contact_forces() const {
 
 std::size_t Simulation::memory_bytes() const {
   std::size_t b = state_.memory_bytes() + lists_.memory_bytes();
+  if (amrc_) b += amrc_->memory_bytes();
   b += mesh_.slot_of_grid.capacity() * 4 + mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
   b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
   b += mesh_.edge_active.capacity() + mesh_.triple_active.capacity();
@@ -240,8 +290,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
                  static_cast<std::size_t>(config.cloth.particles_j);
   // Per slot: state 7 vectors x 24 B + 24 B preconditioner + 8 B contact; per element id
   // (2 per slot) 5 doubles of forces and scratch; mesh: 4 B grid map, 8 B grid coordinates,
-  // 1 B flags, 8 B mass, per id 8 B neighbours, 2 B flags, 16 B geometry; lists 20 B.
-  const std::size_t per_slot = 7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 20;
+  // 1 B flags, 8 B mass, per id 8 B neighbours, 2 B flags, 16 B geometry; lists 24 B; the
+  // AMRC tree 2 B.
+  const std::size_t per_slot =
+      7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
   return n * per_slot + (16u << 20);
 }
 

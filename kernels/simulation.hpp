@@ -5,9 +5,11 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "kernels/active_lists.hpp"
+#include "kernels/amrc.hpp"
 #include "kernels/cg_minimiser.hpp"
 #include "kernels/cloth_mesh.hpp"
 #include "kernels/cloth_state.hpp"
@@ -27,6 +29,7 @@ struct StepReport {
   int sub_steps = 1;            ///< accepted sub-steps (more than 1 after a rejection)
   int rejected = 0;             ///< rejected attempts
   std::int64_t active_elements = 0;  ///< active particles + edges + triples
+  std::optional<AmrcEvent> amrc;     ///< the AMRC check that followed the step, if one ran
 };
 
 /// Verification figures of the current state.
@@ -70,8 +73,26 @@ class Simulation {
   [[nodiscard]] const FabricMaterial& material() const { return material_; }
   [[nodiscard]] const std::vector<Obstacle>& obstacles() const { return obstacles_; }
   [[nodiscard]] int steps_done() const { return steps_done_; }
-  /// Quads of the current mesh as corner slots (i,j), (i+1,j), (i+1,j+1), (i,j+1) order.
+  /// Quads of the current mesh (the leaves on an adaptive mesh) as corner slots in
+  /// (i,j), (i+s,j), (i+s,j+s), (i,j+s) order.
   [[nodiscard]] std::vector<std::array<std::int32_t, 4>> surface_quads() const;
+  /// Positions of every slot, inactive ones interpolated on the current (adaptive) surface:
+  /// the cloth sampled at every finest grid point.
+  [[nodiscard]] std::vector<double> surface_positions() const;
+  /// The quadtree, or null when AMRC is off.
+  [[nodiscard]] const AdaptiveMesh* adaptive_mesh() const { return amrc_.get(); }
+  /// Runs an AMRC check now (normally done by step() every check_every steps) and rebuilds
+  /// the Active-Lists if they are in use. Throws std::logic_error when AMRC is off.
+  AmrcEvent adapt();
+  /// Hand-driven tree edits (tests): begin_tree_edit() returns the tree to refine/coarsen;
+  /// end_tree_edit() rewrites the mesh, carries the unknowns across and rebuilds the lists.
+  AdaptiveMesh& begin_tree_edit();
+  void end_tree_edit();
+  /// How the Active-Lists are rebuilt after an AMRC event (parallel prefix sum by default).
+  void set_list_build(ListBuild build) { list_build_ = build; }
+  /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
+  double rebuild_lists();
+  [[nodiscard]] const ActiveLists* active_lists() const { return lists_built_ ? &lists_ : nullptr; }
   /// Bytes held by mesh, state and lists.
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Active particles + edges + triples.
@@ -90,6 +111,8 @@ class Simulation {
   ClothState state_;
   ActiveLists lists_;
   bool lists_built_ = false;
+  ListBuild list_build_ = ListBuild::parallel_prefix_sum;
+  std::unique_ptr<AdaptiveMesh> amrc_;
   std::unique_ptr<StepObjective> objective_;
   double first_alpha_ = 1.0;
   int steps_done_ = 0;

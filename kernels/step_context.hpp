@@ -9,6 +9,7 @@
 #include "kernels/cloth_mesh.hpp"
 #include "kernels/cloth_state.hpp"
 #include "kernels/element_geometry.hpp"
+#include "kernels/ghost_nodes.hpp"
 #include "kernels/kes_material.hpp"
 #include "kernels/loop_runner.hpp"
 #include "kernels/obstacle.hpp"
@@ -102,6 +103,14 @@ inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_
   const float* p = in.data() + 6 * s;
   return {p[0] * g.x() + p[1] * g.y() + p[2] * g.z(), p[1] * g.x() + p[3] * g.y() + p[4] * g.z(),
           p[2] * g.x() + p[4] * g.y() + p[5] * g.z()};
+}
+
+/// Puts every ghost of an interleaved xyz array (positions, adjoints) on the midpoint of its
+/// parents. Skipped entirely on a mesh without ghosts (no loop, no barrier).
+inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::vector<double>& values) {
+  if (mesh.ghost_count() == 0) return;
+  run.for_each(ElementKind::ghosts,
+               [&](std::int64_t g) { vec3(values, g) = node_value(mesh, values, g); });
 }
 
 /// Per-tile sum of one scalar (energies, dot products).

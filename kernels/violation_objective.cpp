@@ -50,6 +50,7 @@ void ViolationObjective::begin_step(LoopRunner& run) {
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
     if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 0.5);
   });
+  refresh_ghosts(run, ctx_.mesh, st.position);
   refresh_preconditioner(run);
 }
 
@@ -128,6 +129,9 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
         r_bar = bar;
         g = own + m / (dt * dt) * bar;
       });
+
+  // A ghost's residual is handed half to each parent, so its adjoint is the parents' mean.
+  refresh_ghosts(run, mesh, vs_.rho);
 
   // 4: dE/dt and the edges' position contributions.
   run.for_each<CgSums>(
@@ -211,28 +215,34 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
         if (numeric) {
           g = numeric_position_gradient(ctx_, scales_, s);
         } else {
-          Eigen::Vector3d sum = g;
-          for (int d = 0; d < 2; ++d) {
-            const std::int64_t id = element_id(s, d);
-            const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-            if (mesh.edge_active[id]) sum -= vec3(vs_.edge_position, id);  // s is a
-            if (p >= 0) {
-              const std::int64_t ep = element_id(p, d);
-              if (mesh.edge_active[ep] && mesh.next[ep] == s) sum += vec3(vs_.edge_position, ep);
-              if (mesh.triple_active[ep] && mesh.next[ep] == s) {  // s is b of the triple at p
-                sum += vec3(vs_.triple_position, 2 * ep + 1);
+          // Own terms from loop 3 plus every incident element's contribution; a ghost hanging
+          // on s hands half of its incident elements' contributions on (ghost_nodes.hpp).
+          auto incident = [&](std::int64_t k) {
+            Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+            for (int d = 0; d < 2; ++d) {
+              const std::int64_t id = element_id(k, d);
+              const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+              if (mesh.edge_active[id]) sum -= vec3(vs_.edge_position, id);  // k is a
+              if (p >= 0) {
+                const std::int64_t ep = element_id(p, d);
+                if (mesh.edge_active[ep] && mesh.next[ep] == k) sum += vec3(vs_.edge_position, ep);
+                if (mesh.triple_active[ep] && mesh.next[ep] == k) {  // k is b of the triple at p
+                  sum += vec3(vs_.triple_position, 2 * ep + 1);
+                }
+              }
+              if (n >= 0) {
+                const std::int64_t tn = element_id(n, d);
+                if (mesh.triple_active[tn] && mesh.prev[tn] == k) {  // k is a of the triple at n
+                  sum += vec3(vs_.triple_position, 2 * tn);
+                }
+              }
+              if (mesh.triple_active[id]) {  // k is the centre: -(a + b)
+                sum -= vec3(vs_.triple_position, 2 * id) + vec3(vs_.triple_position, 2 * id + 1);
               }
             }
-            if (n >= 0) {
-              const std::int64_t tn = element_id(n, d);
-              if (mesh.triple_active[tn] && mesh.prev[tn] == s) {  // s is a of the triple at n
-                sum += vec3(vs_.triple_position, 2 * tn);
-              }
-            }
-            if (mesh.triple_active[id]) {  // s is the centre: -(a + b)
-              sum -= vec3(vs_.triple_position, 2 * id) + vec3(vs_.triple_position, 2 * id + 1);
-            }
-          }
+            return sum;
+          };
+          const Eigen::Vector3d sum = Eigen::Vector3d(g) + with_ghost_children(mesh, s, incident);
           g = sum;
         }
         const Eigen::Vector3d gs = g;
@@ -417,6 +427,7 @@ void ViolationObjective::move(LoopRunner& run, double delta) {
   ClothState& st = ctx_.state;
   run.for_each(ElementKind::particles,
                [&](std::int64_t s) { vec3(st.position, s) += delta * vec3(st.direction, s); });
+  refresh_ghosts(run, ctx_.mesh, st.position);
   run.for_each(ElementKind::edges,
                [&](std::int64_t id) { st.edge_force[id] += delta * vs_.edge_direction[id]; });
   run.for_each(ElementKind::triples,
