@@ -225,6 +225,10 @@ StateDiagnostics Simulation::diagnostics() const {
     if (!(mesh_.flags[s] & kParticleActive)) continue;
     ++d.active_particles;
     const Eigen::Vector3d x = vec3(state_.position, s);
+    for_each_ghost_child(mesh_, s, [&](std::int64_t g) {
+      d.max_ghost_offset = std::max(
+          d.max_ghost_offset, (vec3(state_.position, g) - node_value(mesh_, state_.position, g)).norm());
+    });
     if (!x.allFinite()) d.finite = false;
     for (const Obstacle& o : obstacles_) {
       d.min_particle_distance = std::min(d.min_particle_distance, o.signed_distance(x));

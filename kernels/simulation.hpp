@@ -42,6 +42,7 @@ struct StateDiagnostics {
   double min_particle_distance = 0.0;    ///< min signed distance of active particles to obstacles, m
   double max_surface_penetration = 0.0;  ///< max depth of the interpolated surface inside an obstacle, m
   double max_strain = 0.0;               ///< max edge strain
+  double max_ghost_offset = 0.0;         ///< max distance of a ghost from its parents' midpoint, m
   std::int64_t active_particles = 0, active_edges = 0, active_triples = 0;
 };
 

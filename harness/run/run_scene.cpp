@@ -12,6 +12,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
 #include "harness/output/vtk_writer.hpp"
+#include "harness/report/sweep_plots.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
@@ -120,6 +121,13 @@ int run_scene(const RunOptions& options) {
       write_vtk(dir / "final.vtk", surface_mesh(simulation), scene.name);
     }
     write_file_atomically(dir / "summary.json", document.dump(2) + "\n");
+    // The adaptive mesh's levels over the draped cloth (cloth.png, coloured by level).
+    if (scene.simulation.amrc.enabled && summary.verification.passed && gnuplot_available()) {
+      const PlotOutcome plot =
+          plot_cloth(mesh_levels_surface(simulation), scene.name + ": mesh levels (0 = finest)", dir);
+      for (const auto& image : plot.images) fmt::print("  wrote {}\n", image.string());
+      for (const auto& problem : plot.problems) fmt::print(stderr, "clothbench: {}\n", problem);
+    }
   } catch (const std::exception& error) {
     fmt::print(stderr, "clothbench: could not write results: {}\n", error.what());
     return kExitFailed;

@@ -3,6 +3,7 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -20,6 +21,11 @@ void verify_state(const kernels::Simulation& simulation, const kernels::StateDia
   if (summary.mass_error > 1e-12) {
     summary.verification.fail(
         fmt::format("step {}: mass {:.15g} kg differs from {:.15g} kg", step, d.total_mass, expected));
+  }
+  if (d.max_ghost_offset > 0.0) {
+    summary.verification.fail(fmt::format(
+        "step {}: crack: a ghost is {:.3g} m off the midpoint of its coarse edge", step,
+        d.max_ghost_offset));
   }
   if (!simulation.obstacles().empty() && d.min_particle_distance < 0.0) {
     summary.verification.fail(fmt::format(
@@ -52,12 +58,25 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
     summary.total_evaluations += m.evaluations;
     summary.rejected_steps += report.rejected;
     cost_sum += m.final.cost / static_cast<double>(std::max<std::int64_t>(1, report.active_elements));
+    if (report.amrc) {
+      const kernels::AmrcEvent& e = *report.amrc;
+      summary.amrc_events.push_back(e);
+      summary.amrc_seconds += e.criterion_seconds + e.update_seconds + e.list_seconds;
+    }
     if (!quiet) {
       fmt::print("  step {:4d}  iterations {:4d}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
                  " max {:9.3e}  {:>7.3f} s  {}{}\n",
                  record.step, record.iterations, record.evaluations, record.cost,
                  record.residual_rms, record.residual_max, record.seconds, record.stop,
                  record.sub_steps > 1 ? fmt::format(" ({} sub-steps)", record.sub_steps) : "");
+      if (report.amrc) {
+        const kernels::AmrcEvent& e = *report.amrc;
+        fmt::print("  AMRC after step {:4d}: {} particles, {} edges, {} triples, {} ghosts "
+                   "(split {}, merged {}); criterion {:.3f} ms, mesh update {:.3f} ms, "
+                   "lists {:.3f} ms\n",
+                   e.step, e.particles, e.edges, e.triples, e.ghosts, e.refined, e.coarsened,
+                   1e3 * e.criterion_seconds, 1e3 * e.update_seconds, 1e3 * e.list_seconds);
+      }
       std::fflush(stdout);  // progress is visible when stdout is a file or a pipe
     }
     if (!std::isfinite(m.final.value) || !std::isfinite(m.final.cost)) {
@@ -90,6 +109,13 @@ void print_summary(const RunSummary& s) {
              d.max_surface_penetration);
   fmt::print("  max strain               {:.4f}\n", d.max_strain);
   fmt::print("  mass error               {:.3e} (relative)\n", s.mass_error);
+  if (!s.amrc_events.empty()) {
+    const kernels::AmrcEvent& last = s.amrc_events.back();
+    fmt::print("  AMRC                     {} checks, {} active particles at the end; {:.3f} s "
+               "({:.3f} % of the run) in criterion + mesh update + list rebuild\n",
+               s.amrc_events.size(), last.particles, s.amrc_seconds,
+               s.wall_seconds > 0 ? 100.0 * s.amrc_seconds / s.wall_seconds : 0.0);
+  }
   fmt::print("  memory                   {:.1f} MiB simulation, {:.1f} MiB peak resident\n",
              static_cast<double>(s.simulation_bytes) / (1 << 20),
              static_cast<double>(s.peak_resident_bytes) / (1 << 20));
@@ -136,6 +162,28 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"memory", {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
       {"steps", steps}};
+  if (scene.simulation.amrc.enabled) {
+    nlohmann::json events = nlohmann::json::array();
+    for (const kernels::AmrcEvent& e : s.amrc_events) {
+      events.push_back({{"step", e.step},
+                        {"particles", e.particles},
+                        {"edges", e.edges},
+                        {"triples", e.triples},
+                        {"ghosts", e.ghosts},
+                        {"refined", e.refined},
+                        {"coarsened", e.coarsened},
+                        {"criterion_seconds", e.criterion_seconds},
+                        {"update_seconds", e.update_seconds},
+                        {"list_seconds", e.list_seconds}});
+    }
+    doc["amrc"] = {{"levels", scene.simulation.amrc.levels},
+                   {"check_every", scene.simulation.amrc.check_every},
+                   {"refine_threshold", scene.simulation.amrc.refine_threshold},
+                   {"coarsen_threshold", scene.simulation.amrc.coarsen_threshold},
+                   {"seconds", s.amrc_seconds},
+                   {"share_of_wall", s.wall_seconds > 0 ? s.amrc_seconds / s.wall_seconds : 0.0},
+                   {"events", events}};
+  }
   // A NaN must never reach a result file: JSON would silently write null for it.
   auto check = [](const nlohmann::json& j, const auto& self, const std::string& path) -> void {
     if (j.is_number_float() && !std::isfinite(j.get<double>())) {
@@ -153,18 +201,54 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
 
 SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
   const kernels::ClothMesh& mesh = simulation.mesh();
-  const kernels::ClothState& st = simulation.state();
+  const std::vector<double> positions = simulation.surface_positions();
   SurfaceMesh out;
   out.points.reserve(static_cast<std::size_t>(mesh.slot_count()));
   std::vector<double> contact = simulation.contact_forces();
   std::vector<double> pinned(static_cast<std::size_t>(mesh.slot_count()));
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-    out.points.emplace_back(kernels::vec3(st.position, s));
+    out.points.emplace_back(kernels::vec3(positions, s));
     pinned[static_cast<std::size_t>(s)] = (mesh.flags[s] & kernels::kParticlePinned) ? 1.0 : 0.0;
   }
   out.quads = simulation.surface_quads();
   out.point_scalars.emplace_back("contact_force_N", std::move(contact));
   out.point_scalars.emplace_back("pinned", std::move(pinned));
+  if (const kernels::AdaptiveMesh* tree = simulation.adaptive_mesh()) {
+    // Level of each point: the finest leaf it touches (0 = finest mesh).
+    std::vector<double> level(static_cast<std::size_t>(mesh.slot_count()), 0.0);
+    for (int i = 0; i < mesh.size_i(); ++i) {
+      for (int j = 0; j < mesh.size_j(); ++j) {
+        int finest = tree->levels();
+        for (int fi = std::max(0, i - 1); fi <= std::min(i, tree->cells_i() - 1); ++fi) {
+          for (int fj = std::max(0, j - 1); fj <= std::min(j, tree->cells_j() - 1); ++fj) {
+            finest = std::min(finest, tree->leaf_level(fi, fj));
+          }
+        }
+        level[static_cast<std::size_t>(mesh.slot(i, j))] = finest;
+      }
+    }
+    out.point_scalars.emplace_back("mesh_level", std::move(level));
+  }
+  return out;
+}
+
+SurfaceMesh mesh_levels_surface(const kernels::Simulation& simulation) {
+  SurfaceMesh out;
+  const kernels::AdaptiveMesh* tree = simulation.adaptive_mesh();
+  if (tree == nullptr) return out;
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const kernels::ClothState& st = simulation.state();
+  std::vector<double> level;
+  for (const auto& quad : simulation.surface_quads()) {
+    const auto first = static_cast<std::int32_t>(out.points.size());
+    for (std::int32_t corner : quad) out.points.emplace_back(kernels::vec3(st.position, corner));
+    out.quads.push_back({first, first + 1, first + 2, first + 3});
+    const int span = mesh.grid_i(quad[1]) - mesh.grid_i(quad[0]);
+    int k = 0;
+    while ((1 << k) < span) ++k;
+    level.insert(level.end(), 4, static_cast<double>(k));
+  }
+  out.point_scalars.emplace_back("mesh_level", std::move(level));
   return out;
 }
 

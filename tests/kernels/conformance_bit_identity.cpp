@@ -18,7 +18,14 @@ struct RunBytes {
   std::vector<double> position, edge_force, triple_moment, costs;
 };
 
-kernels::SimulationConfig bit_identity_scene(kernels::Formulation formulation) {
+/// One bit-identity case: a formulation, with or without AMRC.
+struct Case {
+  kernels::Formulation formulation;
+  bool amrc;
+};
+
+kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
+  const kernels::Formulation formulation = test_case.formulation;
   kernels::SimulationConfig c;
   c.cloth.particles_i = 23;
   c.cloth.particles_j = 19;
@@ -37,15 +44,36 @@ kernels::SimulationConfig bit_identity_scene(kernels::Formulation formulation) {
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
+  if (test_case.amrc) {
+    // 25 x 17 = 2^3 n + 1; a check after every step with close thresholds, so that cells are
+    // split and merged (with ghosts) while the schedulers run over the changing lists.
+    c.cloth.particles_i = 25;
+    c.cloth.particles_j = 17;
+    c.cloth.size_i = 0.48;
+    c.cloth.size_j = 0.32;
+    c.cloth.origin = {-0.24, -0.16, 0.103};
+    c.amrc.enabled = true;
+    c.amrc.levels = 3;
+    c.amrc.check_every = 1;
+    c.amrc.refine_threshold = 0.35;
+    c.amrc.coarsen_threshold = 0.15;
+  }
   return c;
 }
 
-RunBytes run(const std::string& scheduler, int threads, kernels::Formulation formulation) {
+RunBytes run(const std::string& scheduler, int threads, const Case& test_case) {
   omp_set_num_threads(threads);
-  kernels::Simulation sim(bit_identity_scene(formulation));
+  kernels::Simulation sim(bit_identity_scene(test_case));
   auto driver = schedulers::make_driver(scheduler);
   RunBytes out;
-  for (int step = 0; step < 4; ++step) out.costs.push_back(sim.step(*driver).minimiser.final.cost);
+  for (int step = 0; step < 4; ++step) {
+    const kernels::StepReport r = sim.step(*driver);
+    out.costs.push_back(r.minimiser.final.cost);
+    if (r.amrc) {
+      out.costs.push_back(static_cast<double>(r.amrc->particles));
+      out.costs.push_back(static_cast<double>(r.amrc->refined + r.amrc->coarsened));
+    }
+  }
   out.position = sim.state().position;
   out.edge_force = sim.state().edge_force;
   out.triple_moment = sim.state().triple_moment;
@@ -64,11 +92,17 @@ void expect_identical(const RunBytes& reference, const RunBytes& other, const st
   EXPECT_TRUE(same_bytes(reference.costs, other.costs)) << what << ": step costs differ";
 }
 
-class BitIdentity : public ::testing::TestWithParam<kernels::Formulation> {};
+class BitIdentity : public ::testing::TestWithParam<Case> {};
 
 TEST_P(BitIdentity, EverySchedulerAndThreadCountGivesTheSameBytes) {
   const RunBytes reference = run("static", 1, GetParam());
   ASSERT_GT(reference.costs.size(), 0u);
+  if (GetParam().amrc) {
+    ASSERT_GT(reference.costs.size(), 4u);
+    double changes = 0.0;
+    for (std::size_t k = 0; k + 2 < reference.costs.size(); k += 3) changes += reference.costs[k + 2];
+    ASSERT_GT(changes, 0.0) << "the AMRC case must split or merge cells";
+  }
   std::vector<std::string> schedulers = schedulers::available_schedulers();
   const bool quick = std::getenv("CLOTHBENCH_CONFORMANCE_QUICK") != nullptr;
   for (const std::string& scheduler : schedulers) {
@@ -81,11 +115,15 @@ TEST_P(BitIdentity, EverySchedulerAndThreadCountGivesTheSameBytes) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
-                         ::testing::Values(kernels::Formulation::potential,
-                                           kernels::Formulation::violation),
+                         ::testing::Values(Case{kernels::Formulation::potential, false},
+                                           Case{kernels::Formulation::violation, false},
+                                           Case{kernels::Formulation::potential, true},
+                                           Case{kernels::Formulation::violation, true}),
                          [](const auto& info) {
-                           return info.param == kernels::Formulation::potential ? "potential"
-                                                                               : "violation";
+                           std::string name = info.param.formulation == kernels::Formulation::potential
+                                                  ? "potential"
+                                                  : "violation";
+                           return info.param.amrc ? name + "_amrc" : name;
                          });
 
 }  // namespace

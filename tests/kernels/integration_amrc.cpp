@@ -1,0 +1,103 @@
+// AMRC in whole runs (MODEL.md 6): a flat cloth resting on a table coarsens to the coarsest
+// level everywhere; a cloth lying on a box coarsens its flat top and far parts and keeps fine
+// cells along the box edges; mass stays exact and no ghost leaves its edge's midpoint.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "kernel_fixtures.hpp"
+#include "kernels/amrc.hpp"
+
+namespace clothbench {
+namespace {
+
+/// Level of the leaf over the sheet point (x, y) in metres from the sheet's corner.
+int level_at(const kernels::Simulation& sim, double x, double y) {
+  const kernels::AdaptiveMesh& tree = *sim.adaptive_mesh();
+  const int fi = std::min(tree.cells_i() - 1, static_cast<int>(x / sim.mesh().spacing(0)));
+  const int fj = std::min(tree.cells_j() - 1, static_cast<int>(y / sim.mesh().spacing(1)));
+  return tree.leaf_level(fi, fj);
+}
+
+void expect_sound(const kernels::Simulation& sim) {
+  const kernels::StateDiagnostics d = sim.diagnostics();
+  const double expected = sim.mesh().areal_density() * sim.config().cloth.size_i * sim.config().cloth.size_j;
+  EXPECT_NEAR(d.total_mass, expected, 1e-12 * expected);
+  EXPECT_EQ(d.max_ghost_offset, 0.0);
+  EXPECT_TRUE(d.finite);
+  EXPECT_TRUE(sim.adaptive_mesh()->balanced());
+}
+
+TEST(AmrcDrape, FlatClothOnATableCoarsensToTheCoarsestLevel) {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = c.cloth.particles_j = 33;  // 2^3 * 4 + 1
+  c.cloth.block_size = 8;
+  c.cloth.size_i = c.cloth.size_j = 0.64;
+  const double table_top = 0.75, d = c.contact.distance;
+  c.cloth.origin = {-0.32, -0.32, table_top + d - d / c.contact.stiffness};
+  kernels::ObstacleConfig table;
+  table.kind = kernels::ObstacleKind::box;
+  table.center = {0.0, 0.0, table_top / 2};
+  table.half_extents = {0.5, 0.5, table_top / 2};
+  c.obstacles.push_back(table);
+  c.solver.tolerance = 1e-6;
+  c.amrc.enabled = true;
+  c.amrc.levels = 3;
+  c.amrc.check_every = 3;
+  kernels::Simulation sim(c);
+  schedulers::OmpStaticDriver driver;
+  std::vector<std::int64_t> particles;
+  for (int step = 1; step <= 12; ++step) {
+    const kernels::StepReport r = sim.step(driver);
+    EXPECT_EQ(r.amrc.has_value(), step % 3 == 0) << "step " << step;
+    if (r.amrc) particles.push_back(r.amrc->particles);
+    expect_sound(sim);
+  }
+  // One level per check: 33^2 -> 17^2 -> 9^2 -> 5^2, then nothing left to merge.
+  EXPECT_EQ(particles, (std::vector<std::int64_t>{17 * 17, 9 * 9, 5 * 5, 5 * 5}));
+  for (const kernels::TreeCell& leaf : sim.adaptive_mesh()->leaves()) EXPECT_EQ(leaf.level, 3);
+  const kernels::StateDiagnostics diag = sim.diagnostics();
+  EXPECT_NEAR(diag.contact_support / diag.weight, 1.0, 1e-6);
+}
+
+TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = c.cloth.particles_j = 33;  // 2^2 * 8 + 1
+  c.cloth.block_size = 16;
+  c.cloth.size_i = c.cloth.size_j = 1.0;
+  c.cloth.origin = {-0.5, -0.5, 0.2515};  // lying on the box top (z = 0.25) from the start
+  kernels::ObstacleConfig box;
+  box.kind = kernels::ObstacleKind::box;
+  box.center = {0.0, 0.0, 0.125};
+  box.half_extents = {0.25, 0.25, 0.125};
+  c.obstacles.push_back(box);
+  c.time.step = 0.004;
+  c.time.damping = 0.1;
+  c.solver.tolerance = 1e-2;
+  c.solver.max_iterations = 300;
+  c.amrc.enabled = true;
+  c.amrc.levels = 2;
+  kernels::Simulation sim(c);
+  schedulers::OmpStaticDriver driver;
+  for (int step = 0; step < 12; ++step) {
+    sim.step(driver);
+    expect_sound(sim);
+  }
+  EXPECT_EQ(level_at(sim, 0.5, 0.5), 2) << "the middle of the flat top";
+  EXPECT_EQ(level_at(sim, 0.02, 0.02), 2) << "a far corner";
+  EXPECT_EQ(level_at(sim, 0.98, 0.5), 2) << "the middle of a far side";
+  for (double along : {0.3, 0.5, 0.7}) {
+    // The box edges run along x = 0.25 and x = 0.75 (and the same in y) in sheet coordinates.
+    EXPECT_EQ(level_at(sim, 0.24, along), 0) << "box edge x = 0.25, y = " << along;
+    EXPECT_EQ(level_at(sim, 0.76, along), 0) << "box edge x = 0.75, y = " << along;
+    EXPECT_EQ(level_at(sim, along, 0.24), 0) << "box edge y = 0.25, x = " << along;
+    EXPECT_EQ(level_at(sim, along, 0.76), 0) << "box edge y = 0.75, x = " << along;
+  }
+  EXPECT_GT(sim.mesh().ghost_count(), 0);
+  const kernels::StateDiagnostics d = sim.diagnostics();
+  EXPECT_LT(d.active_particles, 33 * 33 / 2) << "at least half the particles merged away";
+  EXPECT_GT(d.min_particle_distance, 0.0);
+}
+
+}  // namespace
+}  // namespace clothbench
