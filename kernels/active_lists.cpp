@@ -19,56 +19,73 @@ const ElementList& ActiveLists::of(ElementKind kind) const {
 
 namespace {
 
-/// Compacts the live ids of one kind. Counting and filling are per tile; the exclusive scan
-/// over tile counts is sequential (tiles are ~I * blocks_j, a few ten thousand at most).
-void build_list(const ClothMesh& mesh, ElementKind kind, ListBuild build, ElementList& list) {
-  const std::int64_t tiles = mesh.tile_count();
-  const int per_slot = ids_per_slot(kind);
-  list.tile_begin.assign(static_cast<std::size_t>(tiles + 1), 0);
-  // Capacity for every element of the finest mesh, taken once: later rebuilds never move the
-  // list (untouched capacity costs address space, not resident memory).
-  list.entries.reserve(static_cast<std::size_t>(per_slot * mesh.slot_count()));
-  auto count_tile = [&](std::int64_t t) {
-    std::int64_t count = 0;
-    for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {
-      for (int d = 0; d < per_slot; ++d) {
-        count += element_is_live(mesh, kind, per_slot * s + d) ? 1 : 0;
-      }
-    }
-    list.tile_begin[t + 1] = count;
-  };
-  auto fill_tile = [&](std::int64_t t) {
-    std::int64_t q = list.tile_begin[t];
-    for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {
-      for (int d = 0; d < per_slot; ++d) {
-        const std::int64_t id = per_slot * s + d;
-        if (element_is_live(mesh, kind, id)) list.entries[q++] = static_cast<std::int32_t>(id);
-      }
-    }
-  };
-  if (build == ListBuild::parallel_prefix_sum) {
-#pragma omp parallel for schedule(static)
-    for (std::int64_t t = 0; t < tiles; ++t) count_tile(t);
-  } else {
-    for (std::int64_t t = 0; t < tiles; ++t) count_tile(t);
-  }
-  for (std::int64_t t = 0; t < tiles; ++t) list.tile_begin[t + 1] += list.tile_begin[t];
-  list.entries.resize(static_cast<std::size_t>(list.tile_begin[tiles]));
-  if (build == ListBuild::parallel_prefix_sum) {
-#pragma omp parallel for schedule(static)
-    for (std::int64_t t = 0; t < tiles; ++t) fill_tile(t);
-  } else {
-    for (std::int64_t t = 0; t < tiles; ++t) fill_tile(t);
-  }
-}
+constexpr ElementKind kKinds[4] = {ElementKind::particles, ElementKind::edges, ElementKind::triples,
+                                   ElementKind::ghosts};
 
 }  // namespace
 
 void ActiveLists::rebuild(const ClothMesh& mesh, ListBuild build) {
-  build_list(mesh, ElementKind::particles, build, particles);
-  build_list(mesh, ElementKind::edges, build, edges);
-  build_list(mesh, ElementKind::triples, build, triples);
-  build_list(mesh, ElementKind::ghosts, build, ghosts);
+  // All four lists in one sweep over the tiles: count per tile and kind, an exclusive scan
+  // over the tile counts (tiles are ~I * blocks_j, a few ten thousand at most), then fill.
+  // The flags are read once per pass for every kind.
+  ElementList* lists[4] = {&particles, &edges, &triples, &ghosts};
+  const std::int64_t tiles = mesh.tile_count();
+  for (int k = 0; k < 4; ++k) {
+    lists[k]->tile_begin.assign(static_cast<std::size_t>(tiles + 1), 0);
+    // Capacity for every element of the finest mesh, taken once: later rebuilds never move
+    // a list (untouched capacity costs address space, not resident memory).
+    lists[k]->entries.reserve(static_cast<std::size_t>(ids_per_slot(kKinds[k]) * mesh.slot_count()));
+  }
+  auto count_tile = [&](std::int64_t t) {
+    std::int64_t count[4] = {0, 0, 0, 0};
+    for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {
+      const std::uint8_t f = mesh.flags[s];
+      count[0] += (f & kParticleActive) ? 1 : 0;
+      count[1] += mesh.edge_active[2 * s] + mesh.edge_active[2 * s + 1];
+      count[2] += mesh.triple_active[2 * s] + mesh.triple_active[2 * s + 1];
+      count[3] += (f & kParticleGhost) ? 1 : 0;
+    }
+    for (int k = 0; k < 4; ++k) lists[k]->tile_begin[t + 1] = count[k];
+  };
+  auto scan = [&] {
+    for (ElementList* list : lists) {
+      for (std::int64_t t = 0; t < tiles; ++t) list->tile_begin[t + 1] += list->tile_begin[t];
+      list->entries.resize(static_cast<std::size_t>(list->tile_begin[tiles]));
+    }
+  };
+  auto fill_tile = [&](std::int64_t t) {
+    std::int64_t q[4];
+    for (int k = 0; k < 4; ++k) q[k] = lists[k]->tile_begin[t];
+    std::int32_t* out[4] = {particles.entries.data(), edges.entries.data(), triples.entries.data(),
+                            ghosts.entries.data()};
+    for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {
+      const std::uint8_t f = mesh.flags[s];
+      const auto slot = static_cast<std::int32_t>(s);
+      if (f & kParticleActive) out[0][q[0]++] = slot;
+      if (f & kParticleGhost) out[3][q[3]++] = slot;
+      for (int d = 0; d < 2; ++d) {
+        if (mesh.edge_active[2 * s + d]) out[1][q[1]++] = 2 * slot + d;
+      }
+      for (int d = 0; d < 2; ++d) {
+        if (mesh.triple_active[2 * s + d]) out[2][q[2]++] = 2 * slot + d;
+      }
+    }
+  };
+  if (build == ListBuild::parallel_prefix_sum) {
+#pragma omp parallel
+    {
+#pragma omp for schedule(static)
+      for (std::int64_t t = 0; t < tiles; ++t) count_tile(t);
+#pragma omp single
+      scan();
+#pragma omp for schedule(static)
+      for (std::int64_t t = 0; t < tiles; ++t) fill_tile(t);
+    }
+  } else {
+    for (std::int64_t t = 0; t < tiles; ++t) count_tile(t);
+    scan();
+    for (std::int64_t t = 0; t < tiles; ++t) fill_tile(t);
+  }
 }
 
 std::size_t ActiveLists::memory_bytes() const {

@@ -56,10 +56,10 @@ PointKind classify(const Leaf& leaf, int cells_i, int cells_j, int i, int j) {
 AdaptiveMesh::AdaptiveMesh(const ClothMesh& mesh, int levels)
     : levels_(levels), cells_i_(mesh.size_i() - 1), cells_j_(mesh.size_j() - 1) {
   const int stride = 1 << std::max(levels, 0);
-  if (levels < 1 || levels > 7 || cells_i_ % stride != 0 || cells_j_ % stride != 0) {
+  if (levels < 1 || levels > 16 || cells_i_ % stride != 0 || cells_j_ % stride != 0) {
     throw std::invalid_argument("AdaptiveMesh: " + std::to_string(mesh.size_i()) + " x " +
                                 std::to_string(mesh.size_j()) + " particles is not 2^" +
-                                std::to_string(levels) + " n + 1 with 1 <= L <= 7");
+                                std::to_string(levels) + " n + 1 with 1 <= L <= 16");
   }
   leaf_.assign(static_cast<std::size_t>(cells_i_) * cells_j_, 0);
   old_leaf_.assign(leaf_.size(), 0);

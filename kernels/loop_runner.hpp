@@ -63,6 +63,15 @@ class TilePartials {
     for (const Acc& a : buffers_[parity]) total += a;
     return total;
   }
+  /// Sum, in tile order, of the tiles that have list entries (tile_begin of an ElementList).
+  [[nodiscard]] Acc sum(int parity, const std::vector<std::int64_t>& tile_begin) const {
+    Acc total{};
+    const std::vector<Acc>& buffer = buffers_[parity];
+    for (std::size_t t = 0; t < buffer.size(); ++t) {
+      if (tile_begin[t + 1] > tile_begin[t]) total += buffer[t];
+    }
+    return total;
+  }
 
  private:
   std::vector<Acc> buffers_[2];
@@ -89,7 +98,8 @@ class LoopRunner {
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
   template <class Acc, class Body>
   void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body) {
-    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials)), body);
+    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
+                  body);
   }
 
   /// Same with no reduction.
@@ -99,30 +109,46 @@ class LoopRunner {
   }
 
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
+  /// Over the Active-Lists, tiles without an entry of the loop's kind are skipped: nothing
+  /// wrote their partial (it may hold a value from before an AMRC event). Over blocks every
+  /// tile's partial is written, and an empty tile's is zero, so both give the same bits.
   template <class Acc>
   [[nodiscard]] Acc reduce(const TilePartials<Acc>& partials) const {
-    return partials.sum(parity(&partials));
+    const Use* use = find(&partials);
+    const int parity = use == nullptr ? 0 : use->parity;
+    if (use == nullptr || lists_ == nullptr || driver_.space() != schedulers::IterationSpace::active) {
+      return partials.sum(parity);
+    }
+    return partials.sum(parity, lists_->of(use->kind).tile_begin);
   }
 
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
   [[nodiscard]] schedulers::IterationSpace space() const { return driver_.space(); }
 
  private:
+  /// Which buffer of a partials array is current on this thread, and the kind of its loop.
+  struct Use {
+    const void* array;
+    int parity;
+    ElementKind kind;
+  };
+  [[nodiscard]] const Use* find(const void* partials) const {
+    for (const Use& u : uses_) {
+      if (u.array == partials) return &u;
+    }
+    return nullptr;
+  }
   /// Flips and returns this thread's parity of a partials array (0 after the first flip).
-  int flip(const void* partials) {
-    for (auto& [array, p] : parities_) {
-      if (array == partials) return p ^= 1;
+  int flip(const void* partials, ElementKind kind) {
+    for (Use& u : uses_) {
+      if (u.array == partials) {
+        u.kind = kind;
+        return u.parity ^= 1;
+      }
     }
-    parities_.emplace_back(partials, 0);
+    uses_.push_back(Use{partials, 0, kind});
     return 0;
   }
-  [[nodiscard]] int parity(const void* partials) const {
-    for (const auto& [array, p] : parities_) {
-      if (array == partials) return p;
-    }
-    return 0;
-  }
-
   template <class Acc, class Body>
   void run_loop(ElementKind kind, Acc* partials, Body&& body);
 
@@ -145,7 +171,7 @@ class LoopRunner {
   Instrumentation instrumentation_;
   LoopTimes* times_;
   std::int64_t loop_counter_ = 0;  // identical on all threads: they run the same loops
-  std::vector<std::pair<const void*, int>> parities_;  // buffer in use per partials array
+  std::vector<Use> uses_;  // buffer in use (and loop kind) per partials array
 };
 
 template <class Acc, class Body>

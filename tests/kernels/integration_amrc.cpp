@@ -3,10 +3,16 @@
 // cells along the box edges; mass stays exact and no ghost leaves its edge's midpoint.
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
 
 #include "kernel_fixtures.hpp"
 #include "kernels/amrc.hpp"
+#include "schedulers/registry.hpp"
 
 namespace clothbench {
 namespace {
@@ -60,7 +66,7 @@ TEST(AmrcDrape, FlatClothOnATableCoarsensToTheCoarsestLevel) {
   EXPECT_NEAR(diag.contact_support / diag.weight, 1.0, 1e-6);
 }
 
-TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
+kernels::SimulationConfig box_scene() {
   kernels::SimulationConfig c;
   c.cloth.particles_i = c.cloth.particles_j = 33;  // 2^2 * 8 + 1
   c.cloth.block_size = 16;
@@ -77,7 +83,11 @@ TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
   c.solver.max_iterations = 300;
   c.amrc.enabled = true;
   c.amrc.levels = 2;
-  kernels::Simulation sim(c);
+  return c;
+}
+
+TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
+  kernels::Simulation sim(box_scene());
   schedulers::OmpStaticDriver driver;
   for (int step = 0; step < 12; ++step) {
     sim.step(driver);
@@ -97,6 +107,36 @@ TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
   const kernels::StateDiagnostics d = sim.diagnostics();
   EXPECT_LT(d.active_particles, 33 * 33 / 2) << "at least half the particles merged away";
   EXPECT_GT(d.min_particle_distance, 0.0);
+}
+
+TEST(AmrcDrape, ListsAndBlocksGiveTheSameBytesWhileTheMeshCoarsens) {
+  // Whole tiles of the lists fall empty when the mesh coarsens; their reductions must not
+  // see what those tiles held before (a stale partial once stalled every line search).
+  auto run = [](const std::string& scheduler, int threads) {
+    omp_set_num_threads(threads);
+    kernels::SimulationConfig c = box_scene();
+    c.cloth.block_size = 4;  // many tiles, most of them empty on the coarse mesh
+    kernels::Simulation sim(c);
+    auto driver = schedulers::make_driver(scheduler);
+    std::vector<double> out;
+    for (int step = 0; step < 9; ++step) {
+      const kernels::StepReport r = sim.step(*driver);
+      out.push_back(r.minimiser.final.cost);
+      out.push_back(r.minimiser.final.value);
+      out.push_back(static_cast<double>(r.minimiser.iterations));
+    }
+    out.insert(out.end(), sim.state().position.begin(), sim.state().position.end());
+    return out;
+  };
+  const std::vector<double> reference = run("static", 1);
+  for (const std::string scheduler : {"active-lists", "dynamic:1@active", "static"}) {
+    for (int threads : {1, 2, 3}) {
+      const std::vector<double> other = run(scheduler, threads);
+      ASSERT_EQ(other.size(), reference.size());
+      EXPECT_EQ(std::memcmp(other.data(), reference.data(), reference.size() * sizeof(double)), 0)
+          << scheduler << " with " << threads << " threads";
+    }
+  }
 }
 
 }  // namespace
