@@ -25,7 +25,7 @@ namespace clothbench::kernels {
 struct StepReport {
   int step = 0;                 ///< 1-based index of the completed step
   MinimiserReport minimiser;    ///< iterations, evaluations, costs, stop reason
-  double seconds = 0.0;         ///< wall time of the step
+  double seconds = 0.0;         ///< wall time of the step, its AMRC check included
   int sub_steps = 1;            ///< accepted sub-steps (more than 1 after a rejection)
   int rejected = 0;             ///< rejected attempts
   std::int64_t active_elements = 0;  ///< active particles + edges + triples
