@@ -271,6 +271,35 @@ StateDiagnostics Simulation::diagnostics() const {
   return d;
 }
 
+std::string Simulation::locate_non_finite() const {
+  auto at = [&](std::int64_t s) {
+    return "(" + std::to_string(mesh_.grid_i(s)) + ", " + std::to_string(mesh_.grid_j(s)) + ")";
+  };
+  auto text = [](double v) { return std::isnan(v) ? std::string("nan") : std::string(v > 0 ? "inf" : "-inf"); };
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
+    if (!is_node(mesh_.flags[s])) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double v = state_.position[3 * s + k];
+      if (!std::isfinite(v)) {
+        return std::string(mesh_.flags[s] & kParticleGhost ? "position of ghost " : "position of particle ") +
+               at(s) + " component " + "xyz"[k] + " = " + text(v);
+      }
+    }
+  }
+  for (std::int64_t id = 0; id < 2 * mesh_.slot_count(); ++id) {
+    const char* direction = element_direction(id) == 0 ? "i" : "j";
+    if (mesh_.edge_active[id] && !std::isfinite(state_.edge_force[id])) {
+      return "tension of edge " + at(element_slot(id)) + "->" + at(mesh_.next[id]) + " along " +
+             direction + " = " + text(state_.edge_force[id]);
+    }
+    if (mesh_.triple_active[id] && !std::isfinite(state_.triple_moment[id])) {
+      return "bending moment of triple centred at " + at(element_slot(id)) + " along " +
+             direction + " = " + text(state_.triple_moment[id]);
+    }
+  }
+  return "";
+}
+
 std::vector<double> Simulation::contact_forces() const {
   const StepContext ctx{mesh_, material_, obstacles_, config_, const_cast<ClothState&>(state_)};
   std::vector<double> forces(static_cast<std::size_t>(mesh_.slot_count()), 0.0);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "kernels/active_lists.hpp"
@@ -65,6 +66,10 @@ class Simulation {
   Evaluation evaluate(schedulers::LoopDriver& driver, bool refresh_history = true);
 
   [[nodiscard]] StateDiagnostics diagnostics() const;
+  /// The first non-finite value of the state, named by element kind, grid position and term
+  /// (e.g. "tension of edge (3, 4)->(3, 5) along j = nan"), or "" when every value is finite.
+  /// Scans active particles' positions, then edge tensions, then triple moments.
+  [[nodiscard]] std::string locate_non_finite() const;
   /// Normal support force of every slot at the current positions (N; 0 off contact).
   [[nodiscard]] std::vector<double> contact_forces() const;
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }

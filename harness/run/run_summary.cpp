@@ -79,8 +79,18 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
       }
       std::fflush(stdout);  // progress is visible when stdout is a file or a pipe
     }
-    if (!std::isfinite(m.final.value) || !std::isfinite(m.final.cost)) {
-      summary.verification.fail(fmt::format("step {}: non-finite cost", record.step));
+    // A non-finite value stops the run where it appeared, named by step, element and term.
+    std::string where = simulation.locate_non_finite();
+    if (where.empty() && (!std::isfinite(m.final.value) || !std::isfinite(m.final.cost))) {
+      where = "the step's cost";
+    }
+    if (!where.empty()) {
+      summary.steps.pop_back();  // its figures are not finite: they go to no table
+      summary.non_finite = where;
+      summary.non_finite_step = record.step;
+      summary.verification.fail(fmt::format("step {}: non-finite value: {}", record.step, where));
+      fmt::print(stderr, "clothbench: step {}: non-finite value: {}; the run stops here\n",
+                 record.step, where);
       break;
     }
   }
@@ -140,6 +150,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                      {"sub_steps", r.sub_steps}});
   }
   const kernels::StateDiagnostics& d = s.final_state;
+  // After a non-finite value the state's figures are null (the failure says where it began).
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   nlohmann::json doc = {
       {"schema", "clothbench.run"},
       {"schema_version", 1},
@@ -148,20 +160,21 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"threads", s.threads},
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
-      {"average_minimised_cost", s.average_minimised_cost},
+      {"average_minimised_cost", num(s.average_minimised_cost)},
       {"cg_iterations", s.total_iterations},
       {"evaluations", s.total_evaluations},
       {"rejected_steps", s.rejected_steps},
-      {"contact_support_n", d.contact_support},
-      {"weight_n", d.weight},
-      {"min_particle_distance_m", d.min_particle_distance},
-      {"max_surface_penetration_m", d.max_surface_penetration},
-      {"max_strain", d.max_strain},
-      {"mass_error", s.mass_error},
+      {"contact_support_n", num(d.contact_support)},
+      {"weight_n", num(d.weight)},
+      {"min_particle_distance_m", num(d.min_particle_distance)},
+      {"max_surface_penetration_m", num(d.max_surface_penetration)},
+      {"max_strain", num(d.max_strain)},
+      {"mass_error", num(s.mass_error)},
       {"active", {{"particles", d.active_particles}, {"edges", d.active_edges}, {"triples", d.active_triples}}},
       {"memory", {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
       {"steps", steps}};
+  if (!s.non_finite.empty()) doc["non_finite"] = {{"step", s.non_finite_step}, {"where", s.non_finite}};
   if (scene.simulation.amrc.enabled) {
     nlohmann::json events = nlohmann::json::array();
     for (const kernels::AmrcEvent& e : s.amrc_events) {
@@ -197,6 +210,24 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
   };
   check(doc, check, "run");
   return doc;
+}
+
+nlohmann::json non_finite_snapshot(const RunSummary& summary, const kernels::Simulation& simulation) {
+  const kernels::ClothState& st = simulation.state();
+  auto finite_or_null = [](const std::vector<double>& values) {
+    nlohmann::json out = nlohmann::json::array();
+    for (double v : values) out.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
+    return out;
+  };
+  return {{"schema", "clothbench.non_finite_snapshot"},
+          {"schema_version", 1},
+          {"step", summary.non_finite_step},
+          {"where", summary.non_finite},
+          {"particles", {simulation.mesh().size_i(), simulation.mesh().size_j()}},
+          {"position_m", finite_or_null(st.position)},
+          {"edge_force_n_per_m", finite_or_null(st.edge_force)},
+          {"triple_moment_n", finite_or_null(st.triple_moment)},
+          {"note", "slot-ordered arrays (3 per slot, 2 per slot); null marks a non-finite value"}};
 }
 
 SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {

@@ -52,6 +52,9 @@ struct RunSummary {
   std::uint64_t simulation_bytes = 0;
   std::vector<kernels::AmrcEvent> amrc_events;  ///< every AMRC check, in order
   double amrc_seconds = 0.0;  ///< criterion + mesh update + list rebuild, all events
+  /// Where the first non-finite value appeared ("" if none): the run stopped at that step.
+  std::string non_finite;
+  int non_finite_step = 0;
   Verification verification;
 };
 
@@ -60,6 +63,8 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                     bool quiet);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
 void print_summary(const RunSummary& summary);
+/// The state when a non-finite value appeared, as JSON (non-finite entries become null).
+nlohmann::json non_finite_snapshot(const RunSummary& summary, const kernels::Simulation& simulation);
 /// The run as JSON (no machine block; the caller adds it).
 nlohmann::json summary_json(const RunSummary& summary, const Scene& scene,
                             const std::string& scheduler);
