@@ -109,6 +109,29 @@ TEST(AmrcDrape, ClothOnABoxKeepsFineCellsAlongTheBoxEdges) {
   EXPECT_GT(d.min_particle_distance, 0.0);
 }
 
+TEST(AmrcDrape, ThrashingThresholdsStayFiniteExactAndCrackFree) {
+  // Thresholds closer than a factor two: what is merged turns more than the refine threshold
+  // at the next check and is split again. Checked after every step.
+  kernels::SimulationConfig c = box_scene();
+  c.amrc.check_every = 1;
+  c.amrc.refine_threshold = 0.012;
+  c.amrc.coarsen_threshold = 0.01;
+  kernels::Simulation sim(c);
+  auto driver = schedulers::make_driver("active-lists");
+  std::int64_t splits = 0, merges = 0;
+  for (int step = 0; step < 24; ++step) {
+    const kernels::StepReport r = sim.step(*driver);
+    ASSERT_TRUE(r.amrc.has_value());
+    splits += r.amrc->refined;
+    merges += r.amrc->coarsened;
+    expect_sound(sim);
+    ASSERT_TRUE(std::isfinite(r.minimiser.final.cost)) << "step " << r.step;
+    EXPECT_GT(sim.diagnostics().min_particle_distance, 0.0) << "step " << r.step;
+  }
+  EXPECT_GT(splits, 0);
+  EXPECT_GT(merges, 0);
+}
+
 TEST(AmrcDrape, ListsAndBlocksGiveTheSameBytesWhileTheMeshCoarsens) {
   // Whole tiles of the lists fall empty when the mesh coarsens; their reductions must not
   // see what those tiles held before (a stale partial once stalled every line search).
