@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 
 #include "kernels/potential_objective.hpp"
@@ -272,29 +273,44 @@ StateDiagnostics Simulation::diagnostics() const {
 }
 
 std::string Simulation::locate_non_finite() const {
+  // Built with a stream: GCC 12 warns (-Wrestrict, a known false positive) on chains of
+  // std::string concatenations here.
+  std::ostringstream out;
   auto at = [&](std::int64_t s) {
-    return "(" + std::to_string(mesh_.grid_i(s)) + ", " + std::to_string(mesh_.grid_j(s)) + ")";
+    out << '(' << mesh_.grid_i(s) << ", " << mesh_.grid_j(s) << ')';
   };
-  auto text = [](double v) { return std::isnan(v) ? std::string("nan") : std::string(v > 0 ? "inf" : "-inf"); };
+  auto value = [&](double v) {
+    out << " = " << (std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf");
+  };
   for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
     if (!is_node(mesh_.flags[s])) continue;
     for (int k = 0; k < 3; ++k) {
       const double v = state_.position[3 * s + k];
-      if (!std::isfinite(v)) {
-        return std::string(mesh_.flags[s] & kParticleGhost ? "position of ghost " : "position of particle ") +
-               at(s) + " component " + "xyz"[k] + " = " + text(v);
-      }
+      if (std::isfinite(v)) continue;
+      out << ((mesh_.flags[s] & kParticleGhost) ? "position of ghost " : "position of particle ");
+      at(s);
+      out << " component " << "xyz"[k];
+      value(v);
+      return out.str();
     }
   }
   for (std::int64_t id = 0; id < 2 * mesh_.slot_count(); ++id) {
-    const char* direction = element_direction(id) == 0 ? "i" : "j";
+    const char direction = element_direction(id) == 0 ? 'i' : 'j';
     if (mesh_.edge_active[id] && !std::isfinite(state_.edge_force[id])) {
-      return "tension of edge " + at(element_slot(id)) + "->" + at(mesh_.next[id]) + " along " +
-             direction + " = " + text(state_.edge_force[id]);
+      out << "tension of edge ";
+      at(element_slot(id));
+      out << "->";
+      at(mesh_.next[id]);
+      out << " along " << direction;
+      value(state_.edge_force[id]);
+      return out.str();
     }
     if (mesh_.triple_active[id] && !std::isfinite(state_.triple_moment[id])) {
-      return "bending moment of triple centred at " + at(element_slot(id)) + " along " +
-             direction + " = " + text(state_.triple_moment[id]);
+      out << "bending moment of triple centred at ";
+      at(element_slot(id));
+      out << " along " << direction;
+      value(state_.triple_moment[id]);
+      return out.str();
     }
   }
   return "";
