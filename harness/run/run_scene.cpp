@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <stdexcept>
 
 #include "harness/machine/machine_context.hpp"
@@ -92,7 +93,16 @@ int run_scene(const RunOptions& options) {
   }
   omp_set_num_threads(threads);
 
-  kernels::Simulation simulation(scene.simulation);
+  std::unique_ptr<kernels::Simulation> owned;
+  try {
+    owned = std::make_unique<kernels::Simulation>(scene.simulation);
+  } catch (const std::invalid_argument& error) {
+    // Combinations the kernel refuses (e.g. the violation formulation's numeric gradient with
+    // AMRC): named with the scene file, exit 2, nothing written.
+    fmt::print(stderr, "clothbench: {}: [solver] / [amrc]: {}\n", scene.file.string(), error.what());
+    return kExitBadInput;
+  }
+  kernels::Simulation& simulation = *owned;
   const bool oversubscribed = threads > hardware_threads();
   fmt::print("clothbench run: {} ({})\n", scene.name, scene.file.string());
   fmt::print("  particles {} x {}, fabric {}, formulation {}, gradient {}, preconditioner {}\n",
