@@ -5,7 +5,8 @@
 //   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
-// 2 bad input (command line, scene file).
+// 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
+// (its finished rows are kept; it prints the command that resumes it).
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

@@ -8,8 +8,11 @@
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <set>
+#include <stdexcept>
 
 #include "harness/scene/fabric_reader.hpp"
+#include "harness/scene/initial_overlap.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/scene/toml_reader.hpp"
 
@@ -98,6 +101,7 @@ ClothSources read_cloth(const TableReader& reader, kernels::ClothConfig& cloth) 
                      fmt::format("got {}", scene_detail::describe_type(*pinned)), expected);
     }
     const std::int64_t limits[2] = {cloth.particles_i - 1, cloth.particles_j - 1};
+    std::set<std::pair<int, int>> seen;
     for (const toml::node& entry : *list) {
       const toml::array* pair = entry.as_array();
       if (pair == nullptr || pair->size() != 2) {
@@ -119,9 +123,7 @@ ClothSources read_cloth(const TableReader& reader, kernels::ClothConfig& cloth) 
         }
       }
       const std::pair<int, int> pin(static_cast<int>(ij[0]), static_cast<int>(ij[1]));
-      if (std::find(cloth.pinned.begin(), cloth.pinned.end(), pin) == cloth.pinned.end()) {
-        cloth.pinned.push_back(pin);  // a repeated pin is the same pin
-      }
+      if (seen.insert(pin).second) cloth.pinned.push_back(pin);  // a repeated pin is one pin
     }
   }
   return sources;
@@ -148,7 +150,8 @@ void read_fabric_choice(const TableReader& cloth, const toml::table* fabric_tabl
     } catch (const SceneError& error) {  // the preset itself is invalid: say who uses it
       const auto& at = cloth.where("fabric");
       throw SceneError(fmt::format("{} (fabric preset \"{}\" used at {}:{}:{})", error.what(),
-                                   *preset, cloth.file(), at.begin.line, at.begin.column));
+                                   scene_detail::printable(*preset), cloth.file(), at.begin.line,
+                                   at.begin.column));
     }
     if (!parameters) {
       const auto names = scene_detail::preset_names(presets);
@@ -304,16 +307,68 @@ kernels::ObstacleConfig read_obstacle(const TableReader& reader) {
   return obstacle;
 }
 
-void read_obstacles(const toml::node& node, const std::string& file,
-                    std::vector<kernels::ObstacleConfig>& obstacles) {
+// Reads every [[obstacle]]; returns where each one's table starts, for later messages.
+std::vector<toml::source_region> read_obstacles(const toml::node& node, const std::string& file,
+                                                std::vector<kernels::ObstacleConfig>& obstacles) {
   const toml::array* list = node.as_array();
   if (list == nullptr || !list->is_array_of_tables()) {
     fail(file, node.source(), "obstacle", "", "obstacles are an array of tables",
          "expected [[obstacle]] sections");
   }
+  std::vector<toml::source_region> sources;
   for (std::size_t k = 0; k < list->size(); ++k) {
     const TableReader reader(*list->get(k)->as_table(), file, fmt::format("obstacle[{}]", k));
     obstacles.push_back(read_obstacle(reader));
+    sources.push_back(list->get(k)->source());
+  }
+  return sources;
+}
+
+const char* kind_name(kernels::ObstacleKind kind) {
+  switch (kind) {
+    case kernels::ObstacleKind::plane: return "plane";
+    case kernels::ObstacleKind::box: return "box";
+    case kernels::ObstacleKind::sphere: return "sphere";
+    case kernels::ObstacleKind::cylinder: return "cylinder";
+  }
+  return "obstacle";
+}
+
+// Blocks of the grid the start-overlap search may visit per scene (well under a second);
+// only absurd grids, such as 10^6 x 10^6 particles deep inside an obstacle, come near it.
+constexpr std::int64_t kOverlapSearchBudget = std::int64_t{1} << 18;
+
+// The cloth must start outside every obstacle (touching is allowed): a particle that starts
+// inside is thrown out by the contact penalty in the first step. Reported at the obstacle.
+void check_cloth_starts_outside(const kernels::SimulationConfig& simulation,
+                                const std::vector<toml::source_region>& sources,
+                                const std::string& file) {
+  std::int64_t budget = kOverlapSearchBudget;
+  for (std::size_t k = 0; k < simulation.obstacles.size(); ++k) {
+    const std::string section = fmt::format("obstacle[{}]", k);
+    std::optional<kernels::Obstacle> obstacle;
+    try {
+      obstacle.emplace(simulation.obstacles[k]);
+    } catch (const std::invalid_argument& error) {  // the reads above rule this out
+      fail(file, sources[k], section, "", error.what(), "");
+    }
+    const auto overlap = scene_detail::deepest_initial_overlap(simulation.cloth, *obstacle, budget);
+    if (!overlap) continue;
+    const kernels::ClothConfig& cloth = simulation.cloth;
+    std::string problem = fmt::format(
+        "the cloth starts inside this {}: particle ({}, {}) at ({:.6g}, {:.6g}, {:.6g}) m is "
+        "{}{:.6g} m deep",
+        kind_name(simulation.obstacles[k].kind), overlap->i, overlap->j, overlap->position.x(),
+        overlap->position.y(), overlap->position.z(), overlap->complete ? "" : "at least ",
+        overlap->depth);
+    if (overlap->flat_depth <= scene_detail::kOverlapTolerance) {
+      problem += fmt::format(
+          " once [cloth] initial_crumple_m = {} displaces it ({:.6g} m outside when flat)",
+          cloth.initial_crumple, -overlap->flat_depth);
+    }
+    fail(file, sources[k], section, "center_m", problem,
+         "expected every cloth particle to start outside every obstacle, touching at most; "
+         "move the obstacle or the cloth ([cloth] origin_m)");
   }
 }
 
@@ -385,8 +440,19 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
   if (auto reader = section("amrc")) {
     read_amrc(*reader, sources, file_name, simulation);
   }
+  // The kernel has no numeric gradient of the violation formulation on an adaptive mesh
+  // (kernels::Simulation refuses it); gradient = "numeric" can only come from [solver].
+  if (simulation.amrc.enabled && simulation.solver.formulation == kernels::Formulation::violation &&
+      simulation.solver.gradient == kernels::GradientMode::numeric) {
+    const auto solver = section("solver");
+    solver->fail_at(solver->where("gradient"), "gradient",
+                    "the numeric gradient of the violation formulation is not available with "
+                    "[amrc] enabled = true",
+                    "expected gradient = \"analytic\", formulation = \"potential\" or AMRC off");
+  }
   if (const toml::node* obstacles = document.get("obstacle")) {
-    read_obstacles(*obstacles, file_name, simulation.obstacles);
+    const auto obstacle_sources = read_obstacles(*obstacles, file_name, simulation.obstacles);
+    check_cloth_starts_outside(simulation, obstacle_sources, file_name);
   }
   return scene;
 }

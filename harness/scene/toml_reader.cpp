@@ -11,8 +11,23 @@
 #include <sstream>
 
 #include "harness/scene/scene.hpp"
+#include "harness/scene/toml_text_check.hpp"
 
 namespace clothbench::harness::scene_detail {
+
+std::string printable(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7F) {
+      out += fmt::format("\\u{:04X}", static_cast<unsigned>(byte));
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
 
 void fail(const std::string& file, const toml::source_region& where, std::string_view section,
           std::string_view key, std::string_view problem, std::string_view expected) {
@@ -23,17 +38,35 @@ void fail(const std::string& file, const toml::source_region& where, std::string
   if (!key.empty()) message += fmt::format(" {}", key);
   message += fmt::format(": {}", problem);
   if (!expected.empty()) message += fmt::format(" ({})", expected);
-  throw SceneError(message);
+  throw SceneError(printable(message));
 }
 
 toml::table parse_toml(std::string_view text, const std::string& file) {
+  auto syntax_error = [&](const toml::parse_error& error) {
+    const auto& where = error.source();
+    return SceneError(printable(fmt::format(
+        "{}:{}:{}: TOML syntax error: {}", file, std::max<toml::source_index>(where.begin.line, 1),
+        std::max<toml::source_index>(where.begin.column, 1), error.description())));
+  };
+  if (const auto bad = find_character_toml_cannot_take(text)) {
+    // toml++ must not read that character; the text before it is safe. A syntax error there
+    // comes first. A space stands in for the character, so that an error the cut causes
+    // (end of file inside a string, say) is located at or after it.
+    try {
+      (void)toml::parse(std::string(text.substr(0, bad->offset)) + " ", std::string_view(file));
+    } catch (const toml::parse_error& error) {
+      const auto& at = error.source().begin;
+      if (at.line < bad->line || (at.line == bad->line && at.column < bad->column)) {
+        throw syntax_error(error);
+      }
+    }
+    throw SceneError(
+        fmt::format("{}:{}:{}: TOML syntax error: {}", file, bad->line, bad->column, bad->problem));
+  }
   try {
     return toml::parse(text, std::string_view(file));
   } catch (const toml::parse_error& error) {
-    const auto& where = error.source();
-    throw SceneError(fmt::format(
-        "{}:{}:{}: TOML syntax error: {}", file, std::max<toml::source_index>(where.begin.line, 1),
-        std::max<toml::source_index>(where.begin.column, 1), error.description()));
+    throw syntax_error(error);
   }
 }
 
@@ -59,7 +92,10 @@ std::string join_names(const std::vector<std::string>& names) {
 
 std::string closest_name(std::string_view word, const std::vector<std::string>& names) {
   // Optimal-string-alignment distance (edits and adjacent transpositions); a suggestion
-  // only when it is small against the word's length.
+  // only when it is small against the word's length. No valid name is longer than this, so
+  // a longer word is no typo of one (and its distance table is not worth building).
+  constexpr std::size_t kLongestTypo = 64;
+  if (word.size() > kLongestTypo) return {};
   auto distance = [](std::string_view a, std::string_view b) {
     std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
     for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
@@ -105,10 +141,21 @@ bool NumberRange::contains(double value) const {
   return above && below;
 }
 
+namespace {
+// `text` cut to about 40 bytes at a UTF-8 character boundary, "..." marking the cut.
+std::string abbreviated(std::string_view text) {
+  constexpr std::size_t kLimit = 40;
+  if (text.size() <= kLimit) return std::string(text);
+  std::size_t end = kLimit;
+  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xC0) == 0x80) --end;
+  return std::string(text.substr(0, end)) + "...";
+}
+}  // namespace
+
 std::string describe_type(const toml::node& n) {
   switch (n.type()) {
     case toml::node_type::string:
-      return fmt::format("the string \"{}\"", *n.value<std::string>());
+      return fmt::format("the string \"{}\"", abbreviated(*n.value<std::string>()));
     case toml::node_type::integer:
       return fmt::format("the integer {}", *n.value<std::int64_t>());
     case toml::node_type::floating_point:

@@ -21,6 +21,10 @@ namespace clothbench::harness::scene_detail {
                        std::string_view section, std::string_view key, std::string_view problem,
                        std::string_view expected);
 
+/// `text` with control characters (NUL, tab, line breaks, ...) written as \uXXXX, so that a
+/// key or value quoted in a message prints whole on one line.
+std::string printable(std::string_view text);
+
 /// Parses TOML text; syntax errors become SceneError with toml++'s line and column.
 toml::table parse_toml(std::string_view text, const std::string& file);
 

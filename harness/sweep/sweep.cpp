@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "harness/machine/machine_context.hpp"
@@ -16,6 +17,7 @@
 #include "harness/scene/scene.hpp"
 #include "harness/sweep/measured_run.hpp"
 #include "harness/sweep/progress_bar.hpp"
+#include "harness/sweep/stop_request.hpp"
 #include "harness/sweep/sweep_document.hpp"
 #include "harness/sweep/thread_binding.hpp"
 #include "schedulers/registry.hpp"
@@ -73,6 +75,33 @@ json resumed_document(const std::filesystem::path& file, const Scene& scene, int
   return old;
 }
 
+/// `word` quoted for a POSIX shell when it needs to be.
+std::string shell_quoted(const std::string& word) {
+  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                              "0123456789@%+=:,./-_") == std::string::npos) {
+    return word;
+  }
+  std::string quoted = "'";
+  for (const char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+/// The command line of this sweep with --resume: what continues an interrupted sweep.
+std::string resume_command(const SweepOptions& options) {
+  std::vector<std::string> words = options.command_line;
+  if (words.empty()) {  // not started from the command line: the equivalent one
+    words = {"clothbench", "sweep", options.scene_file.string(), "--out",
+             options.output_dir.string()};
+  }
+  if (std::find(words.begin(), words.end(), "--resume") == words.end()) words.push_back("--resume");
+  std::string command;
+  for (const std::string& word : words) {
+    if (!command.empty()) command += ' ';
+    command += shell_quoted(word);
+  }
+  return command;
+}
+
 std::string row_line(const json& row) {
   const json& a = row["accounting"];
   std::string parts;
@@ -128,6 +157,8 @@ int run_sweep(const SweepOptions& options) {
                options.repeat, to_string(options.instrument), to_string(options.bind));
     std::fflush(stdout);
   }
+  // From here on Ctrl-C / SIGTERM stop the sweep after the run in progress (stop_request.hpp).
+  const StopRequest stop;
   std::unique_ptr<kernels::Simulation> reference_simulation;
   const MeasuredRun reference = fresh_run(scene, *schedulers::make_driver(grid.front().given), 1, scene.steps,
                                           kernels::Instrumentation::off, nullptr,
@@ -184,43 +215,67 @@ int run_sweep(const SweepOptions& options) {
   bool all_passed = true;
   for (const json& row : document["rows"]) all_passed = all_passed && row["verification"]["passed"].get<bool>();
 
+  // One row: the warm-up and the measured runs; nullopt when a stop was asked for during it
+  // (checked after every run, so Ctrl-C waits for one run at most, not for a whole row).
+  auto measure_row = [&](const GridScheduler& s, int n) -> std::optional<json> {
+    const std::string label = fmt::format("{} x {} threads", s.canonical, n);
+    const auto driver = schedulers::make_driver(s.given);
+    omp_set_num_threads(n);
+    const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
+    if (options.warmup_steps > 0) {
+      fresh_run(scene, *driver, n, std::min(options.warmup_steps, scene.steps),
+                kernels::Instrumentation::off, nullptr);
+      if (stop.signal() != 0) return std::nullopt;
+    }
+    progress.advance(options.warmup_steps, label);
+    std::vector<MeasuredRun> plain, timed;
+    for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
+      plain.push_back(fresh_run(scene, *driver, n, scene.steps, kernels::Instrumentation::off,
+                                &reference_bytes));
+      if (stop.signal() != 0) return std::nullopt;
+      progress.advance(scene.steps, label);
+      if (instrumented) {
+        timed.push_back(
+            fresh_run(scene, *driver, n, scene.steps, options.instrument, &reference_bytes));
+        if (stop.signal() != 0) return std::nullopt;
+        progress.advance(scene.steps, label);
+      }
+    }
+    json binding = {{"mode", to_string(options.bind)},
+                    {"bound", bound},
+                    {"threads", binder.record_team()}};
+    return make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
+                    options.instrument, scene.steps, std::move(binding));
+  };
+
   for (const GridScheduler& s : grid) {
     for (int n : threads) {
       if (has_row(document, {s.canonical, n})) continue;
-      const std::string label = fmt::format("{} x {} threads", s.canonical, n);
-      const auto driver = schedulers::make_driver(s.given);
-      omp_set_num_threads(n);
-      const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
-      if (options.warmup_steps > 0) {
-        fresh_run(scene, *driver, n, std::min(options.warmup_steps, scene.steps),
-                  kernels::Instrumentation::off, nullptr);
-      }
-      progress.advance(options.warmup_steps, label);
-      std::vector<MeasuredRun> plain, timed;
-      for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
-        plain.push_back(fresh_run(scene, *driver, n, scene.steps, kernels::Instrumentation::off,
-                                  &reference_bytes));
-        progress.advance(scene.steps, label);
-        if (instrumented) {
-          timed.push_back(fresh_run(scene, *driver, n, scene.steps, options.instrument,
-                                    &reference_bytes));
-          progress.advance(scene.steps, label);
-        }
-      }
-      json binding = {{"mode", to_string(options.bind)},
-                      {"bound", bound},
-                      {"threads", binder.record_team()}};
-      json row = make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
-                          options.instrument, scene.steps, std::move(binding));
-      all_passed = all_passed && row["verification"]["passed"].get<bool>();
-      document["rows"].push_back(row);
+      if (stop.signal() != 0) break;
+      std::optional<json> row = measure_row(s, n);
+      if (!row) break;
+      all_passed = all_passed && (*row)["verification"]["passed"].get<bool>();
+      document["rows"].push_back(*row);
       write_outputs(document, options.output_dir);  // an interrupted sweep keeps this row
       if (!options.quiet) {
         progress.clear();
-        fmt::print("{}", row_line(row));
+        fmt::print("{}", row_line(*row));
         std::fflush(stdout);
       }
     }
+  }
+  std::size_t finished = 0;
+  for (const auto& s : grid) {
+    for (int n : threads) finished += has_row(document, {s.canonical, n}) ? 1 : 0;
+  }
+  if (stop.signal() != 0 && finished < grid.size() * threads.size()) {
+    progress.clear();
+    fmt::print(stderr,
+               "clothbench sweep: stopped by {}: {} of {} rows are finished and kept in {}\n"
+               "  resume with: {}\n",
+               signal_name(stop.signal()), finished, grid.size() * threads.size(),
+               json_file.string(), resume_command(options));
+    return 128 + stop.signal();
   }
   progress.clear();
   document["complete"] = true;

@@ -1,6 +1,8 @@
 // The real `clothbench` binary run as a child process on a tiny scene: the sweep document's
 // schema, the table command, the accounting identity on real runs, resume after the process
-// is killed mid-sweep, and the CLI's bad-input errors (exit code 2, clear messages).
+// is killed mid-sweep, Ctrl-C / SIGTERM stopping a sweep after the current run (and a second
+// Ctrl-C at once), oversubscribed rows labelled in every output, and the CLI's bad-input
+// errors (exit code 2, clear messages).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
@@ -22,6 +24,7 @@
 #include <vector>
 
 #include "harness/sweep/sweep_document.hpp"
+#include "tests/harness/clothbench_process.hpp"
 
 namespace {
 
@@ -30,46 +33,27 @@ using nlohmann::json;
 
 const fs::path kScene = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
 
-/// The clothbench binary of this build (tests/CMakeLists.txt defines its path), or
-/// $CLOTHBENCH_BINARY when set.
-fs::path binary() {
-  if (const char* b = std::getenv("CLOTHBENCH_BINARY"); b != nullptr && *b != '\0') return b;
-  return CLOTHBENCH_BINARY;
-}
+// Sanitizer builds (scripts/test --sanitize, scripts/tsan-check) run the kernel 10 to 20 times
+// slower: there the sweeps repeat each run less, and waits are longer.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+constexpr int kWaitSeconds = kSanitized ? 900 : 120;
 
-struct Outcome {
-  int exit_code = -1;
-  std::string output;  ///< stdout and stderr
-};
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-/// Runs clothbench with `arguments` (already shell-quoted where needed).
-Outcome run(const std::string& arguments) {
-  // A hung child (a kernel deadlock) fails the test instead of blocking it.
-  const std::string command =
-      "timeout -s KILL 300 " + quote(binary().string()) + " " + arguments + " 2>&1";
-  Outcome outcome;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return outcome;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) outcome.output += buffer;
-  const int status = pclose(pipe);
-  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return outcome;
-}
-
-json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return json::parse(in);
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("clothbench-test-" + name + "-" +
-                                                    std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
+using clothbench_test::binary;
+using clothbench_test::fresh_dir;
+using clothbench_test::Outcome;
+using clothbench_test::quote;
+using clothbench_test::read_json;
+using clothbench_test::run;
 
 class SweepBinary : public ::testing::Test {
  protected:
@@ -164,7 +148,7 @@ std::set<std::tuple<std::string, int, std::string, bool>> row_keys(const json& d
 TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   const fs::path killed = fresh_dir("killed"), whole = fresh_dir("whole");
   const std::vector<std::string> grid = {"--schedulers", "static,dynamic:2,guided:1,active-lists",
-                                         "--threads", "1,2", "--repeat", "12",
+                                         "--threads", "1,2", "--repeat", kSanitized ? "2" : "12",
                                          "--no-plots", "--quiet", "--out"};
   std::vector<std::string> args = {binary().string(), "sweep", kScene.string()};
   args.insert(args.end(), grid.begin(), grid.end());
@@ -176,7 +160,7 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   ASSERT_EQ(posix_spawn(&child, argv[0], nullptr, nullptr, argv.data(), environ), 0);
 
   // Kill it once two rows are on disk (and well before the last of the 8).
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWaitSeconds);
   std::size_t rows_before_kill = 0;
   while (std::chrono::steady_clock::now() < deadline) {
     try {
@@ -223,6 +207,191 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   EXPECT_NE(mismatch.output.find("--resume"), std::string::npos) << mismatch.output;
   fs::remove_all(killed);
   fs::remove_all(whole);
+}
+
+/// Waits until OUT/sweep.json holds at least `rows` rows, at most `seconds`; returns the
+/// count last seen. Fails the test on a torn (unparseable) file.
+std::size_t wait_for_rows(const fs::path& out, std::size_t rows, int seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  std::size_t seen = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    try {
+      if (fs::exists(out / "sweep.json")) seen = read_json(out / "sweep.json")["rows"].size();
+    } catch (const json::exception&) {
+      ADD_FAILURE() << "sweep.json was torn: writes must be atomic";
+    }
+    if (seen >= rows) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return seen;
+}
+
+/// Exit code of a shell command line (stdout and stderr discarded into `output`).
+int run_shell(const std::string& command, std::string& output) {
+  FILE* pipe = popen(("timeout -s KILL 300 " + command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return -1;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
+  const int status = pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST_F(SweepBinary, CtrlCStopsAfterTheCurrentRunKeepsRowsAndTheResumeCommandCompletes) {
+  const fs::path out = fresh_dir("ctrl-c"), whole = fresh_dir("ctrl-c-whole");
+  const fs::path log = out.string() + ".log";
+  const std::vector<std::string> grid = {"--schedulers", "static,dynamic:2,guided:1,active-lists",
+                                         "--threads", "1,2", "--no-plots", "--quiet"};
+  std::vector<std::string> args = {"sweep", kScene.string()};
+  args.insert(args.end(), grid.begin(), grid.end());
+  for (const char* a : {"--repeat", kSanitized ? "2" : "8", "--out"}) args.emplace_back(a);
+  args.push_back(out.string());
+  const pid_t child = clothbench_test::spawn(args, log);
+  ASSERT_NE(child, 0);
+
+  const std::size_t rows_before = wait_for_rows(out, 1, kWaitSeconds);
+  kill(child, SIGINT);
+  int status = 0;
+  waitpid(child, &status, 0);
+  const std::string output = clothbench_test::read_text(log);
+  ASSERT_GE(rows_before, 1u) << output;
+  ASSERT_TRUE(WIFEXITED(status)) << "Ctrl-C must not kill the sweep: " << output;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << output;
+
+  // Every finished row is kept, intact; the sweep is marked unfinished.
+  const json partial = read_json(out / "sweep.json");
+  const std::size_t kept = partial["rows"].size();
+  EXPECT_GE(kept, rows_before);
+  EXPECT_LT(kept, 8u) << "the sweep finished before the signal arrived";
+  EXPECT_FALSE(partial["complete"].get<bool>());
+  const auto problems = clothbench::harness::validate_sweep_document(partial);
+  EXPECT_TRUE(problems.empty()) << problems.front();
+
+  // The message says what happened, what is kept where, and how to resume.
+  EXPECT_NE(output.find("clothbench sweep: stopping after the current run"), std::string::npos)
+      << output;
+  EXPECT_NE(output.find("clothbench sweep: stopped by SIGINT: " + std::to_string(kept) +
+                        " of 8 rows are finished and kept in " + (out / "sweep.json").string()),
+            std::string::npos)
+      << output;
+  const std::string marker = "  resume with: ";
+  const std::size_t at = output.find(marker);
+  ASSERT_NE(at, std::string::npos) << output;
+  const std::string command =
+      output.substr(at + marker.size(), output.find('\n', at) - at - marker.size());
+  EXPECT_EQ(command.find(binary().string()), 0u) << command;
+  EXPECT_NE(command.find(" --resume"), std::string::npos) << command;
+
+  // That exact command completes the sweep and leaves the finished rows as they were.
+  std::string resumed_output;
+  ASSERT_EQ(run_shell(command, resumed_output), 0) << command << "\n" << resumed_output;
+  const json after = read_json(out / "sweep.json");
+  EXPECT_TRUE(after["complete"].get<bool>());
+  ASSERT_EQ(after["rows"].size(), 8u);
+  for (std::size_t i = 0; i < kept; ++i) {  // all but what is derived from the other rows
+    json before = partial["rows"][i], now = after["rows"][i];
+    before.erase("derived");
+    now.erase("derived");
+    EXPECT_EQ(now, before) << "row " << i;
+  }
+
+  // Same rows (state digest and verification per scheduler x threads) as a sweep that ran
+  // through; the digests do not depend on the repeat count, so that one repeats once.
+  std::string grid_text;
+  for (const auto& g : grid) grid_text += quote(g) + " ";
+  const Outcome uninterrupted = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                                    "--repeat 1 --warmup-steps 0 --out " + quote(whole.string()));
+  ASSERT_EQ(uninterrupted.exit_code, 0) << uninterrupted.output;
+  EXPECT_EQ(row_keys(read_json(whole / "sweep.json")), row_keys(after));
+  fs::remove_all(out);
+  fs::remove_all(whole);
+  fs::remove(log);
+}
+
+TEST_F(SweepBinary, SecondCtrlCAbortsAtOnceAndSigtermStopsLikeCtrlC) {
+  // Long runs (30 steps, about a second), so both signals arrive while the first one goes.
+  const fs::path out = fresh_dir("abort"), log = out.string() + ".log";
+  const pid_t child = clothbench_test::spawn(
+      {"sweep", kScene.string(), "--schedulers", "static", "--threads", "1", "--steps",
+       kSanitized ? "10" : "30",
+       "--repeat", "3", "--warmup-steps", "0", "--no-plots", "--quiet", "--out", out.string()},
+      log);
+  ASSERT_NE(child, 0);
+  // sweep.json appears once the reference run is done; the first row's first run starts a
+  // few milliseconds later (a Ctrl-C before it stops the sweep at once: no run is going).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWaitSeconds);
+  while (!fs::exists(out / "sweep.json") && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(child, SIGINT);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, WNOHANG), 0)
+      << "the sweep ended within 50 ms of the first Ctrl-C, in the middle of a run: "
+      << clothbench_test::read_text(log);
+  kill(child, SIGINT);
+  waitpid(child, &status, 0);
+  const std::string output = clothbench_test::read_text(log);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "exited with " << WEXITSTATUS(status) << ": " << output;
+  EXPECT_EQ(WTERMSIG(status), SIGINT);
+  EXPECT_FALSE(read_json(out / "sweep.json")["complete"].get<bool>());  // and not torn
+  fs::remove_all(out);
+
+  const fs::path term = fresh_dir("sigterm"), term_log = term.string() + ".log";
+  const pid_t second = clothbench_test::spawn(
+      {"sweep", kScene.string(), "--schedulers", "static,dynamic:1", "--threads", "1,2",
+       "--repeat", kSanitized ? "2" : "6", "--no-plots", "--quiet", "--out", term.string()},
+      term_log);
+  ASSERT_NE(second, 0);
+  const std::size_t rows_before = wait_for_rows(term, 1, kWaitSeconds);
+  kill(second, SIGTERM);
+  waitpid(second, &status, 0);
+  const std::string term_output = clothbench_test::read_text(term_log);
+  ASSERT_GE(rows_before, 1u) << term_output;
+  ASSERT_TRUE(WIFEXITED(status)) << term_output;
+  EXPECT_EQ(WEXITSTATUS(status), 143) << term_output;
+  EXPECT_NE(term_output.find("stopped by SIGTERM"), std::string::npos) << term_output;
+  EXPECT_NE(term_output.find("--resume"), std::string::npos) << term_output;
+  EXPECT_GE(read_json(term / "sweep.json")["rows"].size(), rows_before);
+  fs::remove_all(term);
+  fs::remove(term_log);
+  fs::remove(log);
+}
+
+TEST_F(SweepBinary, OversubscribedRowsNeedTheFlagAndAreLabelledEverywhere) {
+  const int hardware = clothbench_test::hardware_threads();
+  const std::string over = std::to_string(hardware + 1);
+  const fs::path out = fresh_dir("oversubscribed");
+  const std::string common = "sweep " + quote(kScene.string()) +
+                             " --schedulers static --repeat 1 --warmup-steps 0 --no-plots "
+                             "--threads 1," + over + " --out " + quote(out.string());
+  const Outcome refused = run(common);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--threads: " + over + " threads requested but this machine has " +
+                                std::to_string(hardware) + " hardware threads"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_NE(refused.output.find("--oversubscribe"), std::string::npos) << refused.output;
+  EXPECT_FALSE(fs::exists(out / "sweep.json")) << "nothing runs before the input is checked";
+
+  const Outcome o = run(common + " --oversubscribe");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  // The per-row line, sweep.json, table.md and table.csv all say so.
+  EXPECT_NE(o.output.find(over + " threads (oversubscribed)"), std::string::npos) << o.output;
+  EXPECT_EQ(o.output.find(" 1 threads (oversubscribed)"), std::string::npos) << o.output;
+  const json d = read_json(out / "sweep.json");
+  EXPECT_TRUE(d["settings"]["oversubscribe"].get<bool>());
+  ASSERT_EQ(d["rows"].size(), 2u);
+  for (const json& row : d["rows"]) {
+    EXPECT_EQ(row["oversubscribed"].get<bool>(), row["threads"].get<int>() > hardware) << row;
+  }
+  const std::string md = clothbench_test::read_text(out / "table.md");
+  EXPECT_NE(md.find("| " + over + " (oversubscribed) |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 1 |"), std::string::npos) << md;
+  const std::string csv = clothbench_test::read_text(out / "table.csv");
+  EXPECT_NE(csv.find("," + over + ",true,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",1,false,"), std::string::npos) << csv;
+  fs::remove_all(out);
 }
 
 TEST_F(SweepBinary, BadInputExitsWithCodeTwoAndSaysWhy) {

@@ -103,7 +103,19 @@ INSTANTIATE_TEST_SUITE_P(
                 "plane, box, sphere, cylinder"},
         Mistake{"float-steps.toml", "2:9", "[scene] steps: got the number 10.5",
                 "expected an integer"},
-        Mistake{"fabric-lt.toml", "4:6", "[fabric.warp] lt: 2.5 is out of range", "in (0, 2)"}),
+        Mistake{"fabric-lt.toml", "4:6", "[fabric.warp] lt: 2.5 is out of range", "in (0, 2)"},
+        Mistake{"obstacle-intersects.toml", "6:1",
+                "[obstacle[0]] center_m: the cloth starts inside this box: particle (2, 2) at "
+                "(0, 0, 0.1) m is 0.05 m deep",
+                "expected every cloth particle to start outside every obstacle"},
+        Mistake{"obstacle-crumple-intersects.toml", "12:1",
+                "[obstacle[1]] center_m: the cloth starts inside this plane: particle (0, 0) at "
+                "(-0.1, -0.1, 0.001) m is 0.002 m deep once [cloth] initial_crumple_m = 0.003 "
+                "displaces it (0.001 m outside when flat)",
+                "move the obstacle or the cloth ([cloth] origin_m)"},
+        Mistake{"non-ascii-outside-string.toml", "2:15",
+                "TOML syntax error: unexpected U+00E9 outside a string or comment",
+                "TOML allows non-ASCII characters only inside strings and comments"}),
     [](const testing::TestParamInfo<Mistake>& info) {
       std::string name = fs::path(info.param.file).stem().string();
       for (char& c : name) {
@@ -111,6 +123,24 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+TEST(SceneLoader, UnknownPresetListsEveryValidOne) {
+  const std::string message = error_of(kData / "bad" / "unknown-preset.toml");
+  EXPECT_THAT(message, HasSubstr("valid presets in " + kPresets.string() +
+                                 ": test-broken, test-cotton, test-silk)"));
+}
+
+TEST(SceneLoader, AmrcSizeBelowTheSmallestNamesTheSmallest) {
+  try {
+    (void)parse_scene("[cloth]\nparticles = [9, 3]\n[amrc]\nenabled = true\nlevels = 2\n",
+                      "small.toml", kPresets);
+    FAIL() << "3 particles accepted with 2 AMRC levels";
+  } catch (const SceneError& error) {
+    EXPECT_THAT(error.what(), StartsWith("small.toml:2:17: [cloth] particles: 3 particles along j "
+                                         "is not 2^2 n + 1 (n >= 1)"));
+    EXPECT_THAT(error.what(), HasSubstr("smallest valid size: 5"));
+  }
+}
 
 TEST(SceneLoader, InvalidPresetNamesThePresetFileAndTheSceneThatUsesIt) {
   const fs::path file = kData / "bad" / "broken-preset.toml";
@@ -220,7 +250,7 @@ TEST(SceneLoader, FullSceneRoundTripsToTheExpectedConfig) {
   EXPECT_DOUBLE_EQ(sim.contact.stiffness, 5e3);
 
   EXPECT_EQ(sim.solver.formulation, Formulation::violation);
-  EXPECT_EQ(sim.solver.gradient, GradientMode::numeric);
+  EXPECT_EQ(sim.solver.gradient, GradientMode::analytic);
   EXPECT_FALSE(sim.solver.preconditioner);
   EXPECT_DOUBLE_EQ(sim.solver.tolerance, 1e-5);
   EXPECT_EQ(sim.solver.max_iterations, 33);
@@ -251,6 +281,21 @@ TEST(SceneLoader, FullSceneRoundTripsToTheExpectedConfig) {
   EXPECT_TRUE(sim.obstacles[3].axis.isApprox(Eigen::Vector3d(0, 0.6, 0.8)));
   EXPECT_DOUBLE_EQ(sim.obstacles[3].radius, 0.05);
   EXPECT_DOUBLE_EQ(sim.obstacles[3].half_length, 0.4);
+}
+
+TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormulation) {
+  const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n"
+                           "gradient = \"numeric\"\n";
+  EXPECT_EQ(parse_scene(text, "numeric.toml", kPresets).simulation.solver.gradient,
+            GradientMode::numeric);
+  try {
+    (void)parse_scene(text + "[amrc]\nenabled = true\nlevels = 2\n", "numeric.toml", kPresets);
+    FAIL() << "the kernel refuses this combination; the loader must too";
+  } catch (const SceneError& error) {
+    EXPECT_THAT(error.what(),
+                StartsWith("numeric.toml:5:12: [solver] gradient: the numeric gradient of the "
+                           "violation formulation is not available with [amrc] enabled = true"));
+  }
 }
 
 TEST(SceneLoader, HashIsStableAndSensitive) {

@@ -1,0 +1,136 @@
+// The real `clothbench` binary given bad input: every classic scene-file mistake makes `check`
+// and `run` exit with code 2 and print FILE:LINE:COLUMN: [section] key and what is wrong; an
+// unknown preset lists the valid ones; more threads than the hardware has are refused unless
+// --oversubscribe is given, and then the run says it is oversubscribed in every output.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tests/harness/clothbench_process.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using clothbench_test::fresh_dir;
+using clothbench_test::Outcome;
+using clothbench_test::quote;
+using clothbench_test::read_json;
+using clothbench_test::run;
+using testing::HasSubstr;
+using testing::StartsWith;
+
+const fs::path kScenes = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests" / "data" / "scenes";
+const fs::path kTiny = kScenes / "sweep-tiny.toml";
+const std::string kTestPresets = "CLOTHBENCH_PRESETS=" + quote((kScenes / "presets.toml").string());
+
+class BadInputBinary : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(clothbench_test::binary()))
+        << "clothbench binary not built: " << clothbench_test::binary();
+  }
+};
+
+struct Mistake {
+  const char* file;     // under tests/data/scenes/bad
+  const char* message;  // what follows "clothbench: FILE:"
+};
+
+void PrintTo(const Mistake& m, std::ostream* os) { *os << m.file; }
+
+class ClassicMistake : public BadInputBinary, public testing::WithParamInterface<Mistake> {};
+
+TEST_P(ClassicMistake, CheckAndRunExitWithCodeTwoNamingFileLineAndKey) {
+  const fs::path file = kScenes / "bad" / GetParam().file;
+  const std::string expected = "clothbench: " + file.string() + ":" + GetParam().message;
+  const Outcome check = run("check " + quote(file.string()), kTestPresets);
+  EXPECT_EQ(check.exit_code, 2) << check.output;
+  EXPECT_THAT(check.output, StartsWith(expected));
+  const fs::path out = fresh_dir("bad-run");
+  const Outcome simulate =
+      run("run " + quote(file.string()) + " --quiet --no-vtk --out " + quote(out.string()),
+          kTestPresets);
+  EXPECT_EQ(simulate.exit_code, 2) << simulate.output;
+  EXPECT_THAT(simulate.output, StartsWith(expected));
+  EXPECT_FALSE(fs::exists(out)) << "nothing is written for bad input";
+}
+
+// The mistakes of issue 7 (the loader's unit tests cover every other one).
+INSTANTIATE_TEST_SUITE_P(
+    Cli, ClassicMistake,
+    testing::Values(
+        Mistake{"missing-cloth.toml", "1:1: [cloth]: missing required section"},
+        Mistake{"wrong-type.toml", "4:10: [time] step_s: got the string \"fast\" (expected"},
+        Mistake{"negative-size.toml", "3:16: [cloth] size_m: -1 is out of range"},
+        Mistake{"amrc-size.toml",
+                "2:19: [cloth] particles: 100 particles along j is not 2^2 n + 1 (n >= 1) as "
+                "[amrc] levels = 2 requires (nearest valid sizes: 97 and 101)"},
+        Mistake{"thresholds-swapped.toml",
+                "4:20: [amrc] refine_threshold: refine_threshold 0.05 <= coarsen_threshold 0.2"},
+        Mistake{"obstacle-intersects.toml",
+                "6:1: [obstacle[0]] center_m: the cloth starts inside this box: particle (2, 2) "
+                "at (0, 0, 0.1) m is 0.05 m deep"},
+        Mistake{"unknown-preset.toml",
+                "3:10: [cloth] fabric: unknown fabric preset \"test-coton\" (did you mean "
+                "'test-cotton'? valid presets in"},
+        Mistake{"non-ascii-outside-string.toml",
+                "2:15: TOML syntax error: unexpected U+00E9 outside a string or comment"}),
+    [](const testing::TestParamInfo<Mistake>& info) {
+      std::string name = fs::path(info.param.file).stem().string();
+      for (char& c : name) {
+        if (c == '-') c = '_';
+      }
+      return name;
+    });
+
+TEST_F(BadInputBinary, UnknownShippedPresetListsTheShippedOnes) {
+  const fs::path file = fresh_dir("preset").string() + ".toml";
+  std::ofstream(file) << "[cloth]\nparticles = [5, 5]\nfabric = \"coton-shirting\"\n";
+  const Outcome o = run("check " + quote(file.string()));
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_THAT(o.output, StartsWith("clothbench: " + file.string() +
+                                   ":3:10: [cloth] fabric: unknown fabric preset "
+                                   "\"coton-shirting\" (did you mean 'cotton-shirting'?"));
+  EXPECT_THAT(o.output, HasSubstr(": cotton-shirting, denim, polyester, silk, wool-suiting)"));
+  fs::remove(file);
+}
+
+TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {
+  const int hardware = clothbench_test::hardware_threads();
+  const std::string over = std::to_string(hardware + 1);
+  const fs::path out = fresh_dir("run-oversubscribed");
+  const std::string common =
+      "run " + quote(kTiny.string()) + " --steps 1 --quiet --no-vtk --out " + quote(out.string());
+
+  const Outcome refused = run(common + " --threads " + over);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_THAT(refused.output,
+              HasSubstr("--threads: " + over + " threads requested but this machine has " +
+                        std::to_string(hardware) + " hardware threads"));
+  EXPECT_THAT(refused.output, HasSubstr("pass --oversubscribe"));
+  EXPECT_FALSE(fs::exists(out));
+
+  // OMP_NUM_THREADS above the hardware is refused the same way.
+  const Outcome from_environment = run(common, "OMP_NUM_THREADS=" + over);
+  EXPECT_EQ(from_environment.exit_code, 2) << from_environment.output;
+  EXPECT_THAT(from_environment.output, HasSubstr("--oversubscribe"));
+
+  const Outcome allowed = run(common + " --threads " + over + " --oversubscribe");
+  ASSERT_EQ(allowed.exit_code, 0) << allowed.output;
+  EXPECT_THAT(allowed.output, HasSubstr("threads " + over + " (OVERSUBSCRIBED)"));
+  EXPECT_THAT(allowed.output, HasSubstr("(" + over + " threads, oversubscribed)"));
+  const auto summary = read_json(out / "sweep-tiny" / "summary.json");
+  EXPECT_EQ(summary["threads"].get<int>(), hardware + 1);
+  EXPECT_TRUE(summary["oversubscribed"].get<bool>());
+
+  const Outcome fits = run(common + " --threads " + std::to_string(hardware));
+  ASSERT_EQ(fits.exit_code, 0) << fits.output;
+  EXPECT_THAT(fits.output, testing::Not(HasSubstr("OVERSUBSCRIBED")));
+  EXPECT_FALSE(read_json(out / "sweep-tiny" / "summary.json")["oversubscribed"].get<bool>());
+  fs::remove_all(out);
+}
+
+}  // namespace
