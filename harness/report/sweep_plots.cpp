@@ -4,6 +4,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 
@@ -224,8 +225,15 @@ PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
   }
   write_file_atomically(dir / "cloth.dat", data);
   const std::string label = field.empty() ? "height z [m]"
-                            : field == "mesh_level" ? "mesh level"
+                            : field == "mesh_level" ? "mesh level (0 = finest)"
                                                     : "contact force [N]";
+  // Mesh levels are integers: one colour per level, integer tics, level 0 (finest) first.
+  std::string discrete_levels;
+  if (field == "mesh_level" && colour != nullptr && !colour->empty()) {
+    const int top = static_cast<int>(std::lround(*std::max_element(colour->begin(), colour->end())));
+    discrete_levels = fmt::format("set cbrange [-0.5:{}.5]\nset cbtics 1\nset palette maxcolors {}\n",
+                                  top, top + 1);
+  }
   std::ostringstream gp;
   gp << terminal(1100, 850) << "set output 'cloth.png'\n"
      << fmt::format("set title {}\n", gnuplot_quote(title + " - coloured by " + label))
@@ -235,7 +243,7 @@ PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
      << (surface.quads.size() <= 2500  // mesh lines only where they do not hide the colours
              ? "set pm3d depthorder corners2color mean border lc rgb '#00000020' lw 0.3\n"
              : "set pm3d depthorder corners2color mean noborder\n")
-     << "set palette rgb 33,13,10\n"
+     << "set palette rgb 33,13,10\n" << discrete_levels
      << fmt::format("set cblabel {}\n", gnuplot_quote(label))
      << "unset key\nset grid\n"
      << "splot 'cloth.dat' using 1:2:3:4 with pm3d\n";

@@ -1,9 +1,10 @@
-// Outputs: atomic file replacement and the legacy VTK writer.
+// Outputs: atomic file replacement, the legacy VTK writer and the cloth picture.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 
 #include "harness/output/atomic_file.hpp"
 #include "harness/output/vtk_writer.hpp"
+#include "harness/report/sweep_plots.hpp"
 
 namespace {
 
@@ -263,6 +265,32 @@ TEST_F(OutputTest, VtkChecksLengthsIndicesAndNames) {
     expect_rejected(file, mesh, {"'two words'"});
   }
   EXPECT_FALSE(fs::exists(file));
+}
+
+// The cloth picture picks its colour field and, for mesh levels, one colour per level with
+// integer tics; with gnuplot present it also draws the PNG.
+TEST_F(OutputTest, ClothPictureColoursMeshLevelsDiscretely) {
+  SurfaceMesh mesh = grid3x3();
+  EXPECT_EQ(clothbench::harness::cloth_colour_field(mesh), "");
+  mesh.point_scalars.emplace_back("contact_force_N", std::vector<double>(9, 0.0));
+  EXPECT_EQ(clothbench::harness::cloth_colour_field(mesh), "");
+  mesh.point_scalars.back().second[4] = 0.5;
+  EXPECT_EQ(clothbench::harness::cloth_colour_field(mesh), "contact_force_N");
+  mesh.point_scalars.emplace_back("mesh_level", std::vector<double>{0, 0, 1, 0, 3, 1, 2, 2, 3});
+  EXPECT_EQ(clothbench::harness::cloth_colour_field(mesh), "mesh_level");
+
+  const auto outcome = clothbench::harness::plot_cloth(mesh, "levels", directory_);
+  const std::string script = read(directory_ / "cloth.gp");
+  EXPECT_THAT(script, HasSubstr("set cbrange [-0.5:3.5]"));
+  EXPECT_THAT(script, HasSubstr("set palette maxcolors 4"));
+  EXPECT_THAT(script, HasSubstr("mesh level (0 = finest)"));
+  // cloth.dat: one 2 x 2 patch per quad, the level as the fourth column.
+  const std::string data = read(directory_ / "cloth.dat");
+  EXPECT_EQ(std::count(data.begin(), data.end(), '\n'), 4 * (4 + 1 + 2));
+  if (clothbench::harness::gnuplot_available()) {
+    EXPECT_TRUE(outcome.problems.empty()) << outcome.problems.front();
+    EXPECT_TRUE(fs::exists(directory_ / "cloth.png"));
+  }
 }
 
 }  // namespace
