@@ -17,6 +17,7 @@
 
 #include "harness/machine/machine_context.hpp"
 #include "harness/report/sweep_table.hpp"
+#include "harness/experiment/experiment.hpp"
 #include "harness/run/run_scene.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/sweep/sweep.hpp"
@@ -143,6 +144,40 @@ int main(int argc, char** argv) {
   sweep_command->add_flag("--quiet", sweep.quiet, "No progress bar and no per-row lines");
   sweep_command->add_flag("--no-plots", sweep_no_plots, "Do not run gnuplot");
 
+  // `clothbench experiment NAME`: the paper's experiments, one command each.
+  clothbench::harness::ExperimentOptions experiment;
+  std::string experiment_size = "small";
+  std::filesystem::path experiment_scene;
+  int experiment_steps = 0;
+  bool experiment_no_plots = false;
+  auto* experiment_command = app.add_subcommand(
+      "experiment", "Re-run a paper experiment: table1, table2, table3, or time-error");
+  experiment_command->add_option("NAME", experiment.name, "table1 | table2 | table3 | time-error")
+      ->required()
+      ->check(CLI::IsMember({"table1", "table2", "table3", "time-error"}));
+  experiment_command->add_option("--size", experiment_size, "paper | small | tiny")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"paper", "small", "tiny"}));
+  experiment_command->add_option("--out", experiment.output_dir, "Output directory")
+      ->capture_default_str();
+  experiment_command
+      ->add_option("--scheduler", experiment.scheduler, "Scheduler of every run (not table2)")
+      ->capture_default_str();
+  experiment_command
+      ->add_option("--threads", experiment.threads, "OpenMP threads (table2: one row count)")
+      ->check(CLI::Range(1, INT_MAX));
+  experiment_command->add_flag("--oversubscribe", experiment.allow_oversubscribe,
+                               "Allow more threads than hardware PUs");
+  auto* experiment_scene_option =
+      experiment_command
+          ->add_option("--scene", experiment_scene, "time-error: base scene (default: Table 1's finer)")
+          ->check(CLI::ExistingFile);
+  auto* experiment_steps_option =
+      experiment_command->add_option("--steps", experiment_steps, "Override every scene's step count")
+          ->check(CLI::Range(1, INT_MAX));
+  experiment_command->add_flag("--quiet", experiment.quiet, "No per-run lines");
+  experiment_command->add_flag("--no-plots", experiment_no_plots, "Do not run gnuplot");
+
   std::filesystem::path table_file;
   std::string table_format = "md";
   auto* table_command =
@@ -187,6 +222,14 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "clothbench sweep: %s\n", error.what());
         return kExitBadInput;
       }
+    }
+    if (*experiment_command) {
+      experiment.size = clothbench::harness::parse_experiment_size(experiment_size, "--size");
+      if (*experiment_scene_option) experiment.scene = experiment_scene;
+      if (*experiment_steps_option) experiment.steps = experiment_steps;
+      experiment.plots = !experiment_no_plots;
+      experiment.command_line.assign(argv, argv + argc);
+      return clothbench::harness::run_experiment(experiment);
     }
     if (*table_command) {
       nlohmann::json document;

@@ -73,6 +73,13 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   StepReport report;
   const double start = monotonic_seconds();
   const double full_step = config_.time.step;
+  // The time budget: this step's share of what is left, polled after every CG iteration.
+  BudgetPoll budget{0.0, 0};
+  const bool budgeted = config_.solver.time_budget > 0.0;
+  if (budgeted) {
+    const int steps_left = std::max(1, planned_steps_ - steps_done_);
+    budget.deadline = start + std::max(0.0, config_.solver.time_budget - budget_spent_) / steps_left;
+  }
 #pragma omp parallel
   {
     LoopRunner run(driver, mesh_, lists, instrumentation, times);
@@ -87,15 +94,18 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
 #pragma omp barrier
 #pragma omp single
       config_.time.step = dt;
-      const MinimiserReport r = minimise_step(*objective_, run, settings, first_alpha);
+      const MinimiserReport r =
+          budgeted ? minimise_step(*objective_, run, settings, first_alpha, &BudgetPoll::poll, &budget)
+                   : minimise_step(*objective_, run, settings, first_alpha);
       total.iterations += r.iterations;
       total.evaluations += r.evaluations;
       total.restarts += r.restarts;
       total.values.insert(total.values.end(), r.values.begin(), r.values.end());
       if (sub_steps == 0 && rejected == 0) total.initial = r.initial;
       const double rms = MinimiserReport::rms(r.final);
+      const bool out_of_time = r.reason == StopReason::time_budget && std::isfinite(r.final.value);
       const bool accept = (std::isfinite(r.final.value) && rms <= config_.solver.reject_residual) ||
-                          level >= config_.solver.max_step_halvings;
+                          out_of_time || level >= config_.solver.max_step_halvings;
       if (accept) {
         objective_->end_step(run);
         total.final = r.final;
@@ -119,6 +129,7 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
       config_.time.step = full_step;
     }
   }
+  if (budgeted) budget_spent_ += monotonic_seconds() - start;
   report.step = ++steps_done_;
   // The AMRC check (criterion, mesh rewrite, list rebuild) belongs to the step's time: it is
   // the sequential overhead the paper's Table 2 accounts for.

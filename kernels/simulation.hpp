@@ -2,6 +2,7 @@
 // and advances it step by step through a scheduler (MODEL.md sections 1-5 and 7).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -45,6 +46,20 @@ struct StateDiagnostics {
   double max_strain = 0.0;               ///< max edge strain
   double max_ghost_offset = 0.0;         ///< max distance of a ghost from its parents' midpoint, m
   std::int64_t active_particles = 0, active_edges = 0, active_triples = 0;
+};
+
+/// The time-budget poll of one step: thread 0's clock decides, every thread gets the answer
+/// (called by every thread of the step's region at the same point of the CG loop).
+struct BudgetPoll {
+  double deadline;
+  int expired;
+  static bool poll(void* self) {
+    auto* b = static_cast<BudgetPoll*>(self);
+#pragma omp barrier
+#pragma omp single
+    b->expired = monotonic_seconds() >= b->deadline ? 1 : 0;
+    return b->expired != 0;  // the single's closing barrier publishes it
+  }
 };
 
 class Simulation {
@@ -94,6 +109,9 @@ class Simulation {
   /// end_tree_edit() rewrites the mesh, carries the unknowns across and rebuilds the lists.
   AdaptiveMesh& begin_tree_edit();
   void end_tree_edit();
+  /// Steps the caller will run in all (shares the [solver] time budget; default 1: the whole
+  /// remaining budget goes to the next step).
+  void set_planned_steps(int steps) { planned_steps_ = std::max(1, steps); }
   /// How the Active-Lists are rebuilt after an AMRC event (parallel prefix sum by default).
   void set_list_build(ListBuild build) { list_build_ = build; }
   /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
@@ -122,6 +140,8 @@ class Simulation {
   std::unique_ptr<StepObjective> objective_;
   double first_alpha_ = 1.0;
   int steps_done_ = 0;
+  int planned_steps_ = 1;
+  double budget_spent_ = 0.0;  ///< wall seconds of the steps so far, when a budget is set
 };
 
 /// Upper estimate of the memory a simulation of `config` needs (bytes), before allocating.

@@ -98,7 +98,11 @@ struct SolverConfig {
   int max_step_halvings = 6;
   /// Record the objective after every CG iteration in StepReport (tests and studies).
   bool record_values = false;
-  /// Wall-clock budget for minimisation of the whole run, s (0 = none; paper's 500 s mode).
+  /// Wall-clock budget for the minimisation of the whole run, s (0 = none; the paper's
+  /// time-budget mode). What is left is shared evenly by the steps still planned
+  /// (Simulation::set_planned_steps); a step whose share runs out stops its CG there and is
+  /// accepted if finite. Results then depend on the machine's speed: bit-identity across
+  /// schedulers and thread counts is not expected with a budget.
   double time_budget = 0.0;
 };
 

@@ -23,6 +23,8 @@ std::string shell_quote(const std::string& text) {
   return out + "'";
 }
 
+}  // namespace
+
 /// `text` as a gnuplot double-quoted string.
 std::string gnuplot_quote(const std::string& text) {
   std::string out = "\"";
@@ -33,7 +35,7 @@ std::string gnuplot_quote(const std::string& text) {
   return out + "\"";
 }
 
-/// Writes `script` as dir/name.gp and runs gnuplot on it in `dir`; records the PNG or a problem.
+// Writes `script` as dir/name.gp and runs gnuplot on it in `dir`; records the PNG or a problem.
 void run_gnuplot(const std::filesystem::path& dir, const std::string& name,
                  const std::string& script, PlotOutcome& outcome) {
   write_file_atomically(dir / (name + ".gp"), script);
@@ -50,11 +52,13 @@ void run_gnuplot(const std::filesystem::path& dir, const std::string& name,
   }
 }
 
-std::string terminal(int width, int height) {
+std::string png_terminal(int width, int height) {
   return fmt::format(
       "set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11' noenhanced\n", width,
       height);
 }
+
+namespace {
 
 /// Rows per scheduler in document order, threads ascending.
 std::vector<std::pair<std::string, std::vector<const json*>>> by_scheduler(const json& doc) {
@@ -117,7 +121,7 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
   const int pus = document["machine"].contains("cpu") ? document["machine"]["cpu"].value("pus", 0) : 0;
   const json& s = document["settings"];
   std::ostringstream gp;
-  gp << terminal(1400, 580) << "set output 'fig12.png'\nset datafile missing '?'\n";
+  gp << png_terminal(1400, 580) << "set output 'fig12.png'\nset datafile missing '?'\n";
   gp << fmt::format("set multiplot layout 1,2 title {}\n",
                     gnuplot_quote(fmt::format("{} - {} steps, median of {} runs (bars: min-max)",
                                               document["scene"]["name"].get<std::string>(),
@@ -170,7 +174,7 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
   }
   write_file_atomically(dir / "overhead.dat", bars.str());
   std::ostringstream og;
-  og << terminal(1500, 650) << "set output 'overhead.png'\n"
+  og << png_terminal(1500, 650) << "set output 'overhead.png'\n"
      << "set multiplot layout 1,2 title 'Where the time goes (median instrumented run, "
         "summed over loops)'\n"
      << "set style data histograms\nset style histogram rowstacked\n"
@@ -235,7 +239,7 @@ PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
                                   top, top + 1);
   }
   std::ostringstream gp;
-  gp << terminal(1100, 850) << "set output 'cloth.png'\n"
+  gp << png_terminal(1100, 850) << "set output 'cloth.png'\n"
      << fmt::format("set title {}\n", gnuplot_quote(title + " - coloured by " + label))
      << "set view 58, 32, 1, 1.1\nset view equal xyz\nset xyplane relative 0\n"
      << "set xlabel 'x [m]'\nset ylabel 'y [m]'\nset zlabel 'z [m]' rotate\n"

@@ -19,6 +19,15 @@ struct PlotOutcome {
   std::vector<std::string> problems;          ///< one line per figure that failed
 };
 
+/// `text` as a gnuplot double-quoted string.
+std::string gnuplot_quote(const std::string& text);
+/// The pngcairo terminal line of a `width` x `height` picture.
+std::string png_terminal(int width, int height);
+/// Writes `script` as dir/name.gp and runs gnuplot on it in `dir`; records the PNG in
+/// `outcome.images` or a line in `outcome.problems` (gnuplot's messages stay in name.log).
+void run_gnuplot(const std::filesystem::path& dir, const std::string& name,
+                 const std::string& script, PlotOutcome& outcome);
+
 /// True when `gnuplot` runs (searched on PATH).
 bool gnuplot_available();
 

@@ -39,6 +39,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                     bool quiet) {
   RunSummary summary;
   double cost_sum = 0.0;
+  simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
   for (int k = 0; k < steps; ++k) {
     const kernels::StepReport report = simulation.step(driver);
     const kernels::MinimiserReport& m = report.minimiser;

@@ -72,6 +72,7 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
   kernels::LoopTimes* timer = instrumentation == kernels::Instrumentation::off ? nullptr : &times;
   double step_seconds = 0.0;
   bool finite_cost = true;
+  simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
   const double start = kernels::monotonic_seconds();
   for (int k = 0; k < steps && finite_cost; ++k) {
     const kernels::StepReport report = simulation.step(driver, instrumentation, timer);

@@ -1,5 +1,6 @@
 // The CG minimiser: the objective never increases within a step, and the step converges.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include "kernel_fixtures.hpp"
 
@@ -43,6 +44,49 @@ TEST(Minimiser, ConvergesToTheToleranceOnASmallStep) {
     EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
     EXPECT_LE(kernels::MinimiserReport::rms(r.minimiser.final), 1e-6);
   }
+}
+
+// The time budget: a spent budget stops every step's CG at once (accepted, finite, no halving),
+// and on 2 threads every thread agrees on the stop (the poll is broadcast; a disagreement
+// would hang the region or diverge).
+TEST(Minimiser, AnExhaustedTimeBudgetStopsEveryStep) {
+  for (int threads : {1, 2}) {
+    kernels::SimulationConfig c = testing::small_cloth(true, true);
+    c.solver.tolerance = 1e-9;
+    c.solver.max_iterations = 500;
+    c.solver.reject_residual = 1e-3;  // without the budget rule these steps would be halved
+    c.solver.time_budget = 1e-9;      // s: used up before the first iteration
+    kernels::Simulation sim(c);
+    sim.set_planned_steps(4);
+    schedulers::OmpStaticDriver driver;
+    omp_set_num_threads(threads);
+    for (int step = 0; step < 4; ++step) {
+      const kernels::StepReport r = sim.step(driver);
+      EXPECT_EQ(r.minimiser.reason, kernels::StopReason::time_budget) << "step " << r.step;
+      EXPECT_EQ(r.minimiser.iterations, 0);
+      EXPECT_EQ(r.rejected, 0);
+    }
+    EXPECT_TRUE(sim.diagnostics().finite);
+  }
+}
+
+// A budget larger than the run needs changes nothing: the same steps converge as without it.
+TEST(Minimiser, AnAmpleTimeBudgetLeavesTheRunAlone) {
+  kernels::SimulationConfig c = testing::small_cloth(true, true);
+  c.solver.tolerance = 1e-4;
+  c.solver.max_iterations = 60;
+  kernels::Simulation plain(c);
+  c.solver.time_budget = 3600.0;
+  kernels::Simulation budgeted(c);
+  budgeted.set_planned_steps(3);
+  schedulers::OmpStaticDriver driver;
+  for (int step = 0; step < 3; ++step) {
+    const kernels::StepReport a = plain.step(driver), b = budgeted.step(driver);
+    EXPECT_EQ(a.minimiser.iterations, b.minimiser.iterations);
+    EXPECT_EQ(a.minimiser.reason, b.minimiser.reason);
+    EXPECT_NE(b.minimiser.reason, kernels::StopReason::time_budget);
+  }
+  EXPECT_EQ(plain.state().position, budgeted.state().position);
 }
 
 }  // namespace
