@@ -139,10 +139,11 @@ void plot(const std::vector<Point>& points, const std::vector<std::size_t>& fron
                     gnuplot_quote(fmt::format("Run time against error ({} size, reference {:.3g} s)",
                                               to_string(context.options.size),
                                               points.front().run.seconds)))
-     << "set logscale xy\nset xlabel 'run time [s]'\nset ylabel 'RMS surface error [mm]'\n"
+     << "set logscale xy\nset format x '%g'\nset format y '%g'\nset xlabel 'run time [s]'\nset ylabel 'RMS surface error [mm]'\n"
      << "set grid\nset key top right\nset offsets graph 0.05, graph 0.2, graph 0.1, graph 0.1\n"
      << "plot 'time_error.dat' index 1 using 1:2 with steps lw 2 lc rgb '#d95f02' title 'Pareto front', \\\n"
-     << "     '' index 0 using 2:3:($4 > 0 ? 2 : 1) with points pt 7 ps 1.5 lc variable notitle, \\\n"
+     << "     '' index 0 using 2:($4 > 0 ? $3 : 1/0) with points pt 7 ps 1.5 lc rgb '#1b9e77' title 'on the front', \\\n"
+     << "     '' index 0 using 2:($4 > 0 ? 1/0 : $3) with points pt 7 ps 1.5 lc rgb '#7570b3' title 'dominated', \\\n"
      << "     '' index 0 using 2:3:1 with labels offset char 0.8, char 0.8 left font ',9' notitle\n";
   PlotOutcome outcome;
   run_gnuplot(context.dir, "time_error", gp.str(), outcome);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -132,6 +133,10 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
   EXPECT_LT(base->at("error_rms_m").get<double>(), coarse->at("error_rms_m").get<double>());
   ASSERT_NE(find_run(runs, "time-budget-50%"), nullptr);
   ASSERT_NE(find_run(runs, "numeric-gradient"), nullptr);
+  if (std::system("gnuplot --version > /dev/null 2>&1") == 0) {
+    EXPECT_TRUE(fs::exists(dir / "time_error.png"));
+    EXPECT_NE(read_text(dir / "time_error.gp").find("title 'Pareto front'"), std::string::npos);
+  }
   const std::string md = read_text(dir / "time_error.md");
   EXPECT_NE(md.find("| Pareto |"), std::string::npos);
   EXPECT_NE(md.find("| * |"), std::string::npos);
