@@ -155,6 +155,7 @@ void Simulation::set_external_force(int i, int j, const Eigen::Vector3d& force) 
   if ((mesh_.flags[s] & kParticleActive) == 0) {
     // Only AMRC makes a particle inactive: split the leaves around it until it is a corner
     // of all of them (a mesh change between steps, like an AMRC event).
+    if (!amrc_) throw std::logic_error("set_external_force: inactive particle without AMRC");
     amrc_->begin_change(mesh_, state_);
     amrc_->refine_to_particle(i, j);
     amrc_->finish_change(mesh_, state_);
