@@ -117,17 +117,34 @@ bool AdaptiveMesh::coarsen(const TreeCell& c, const ClothMesh& mesh) {
       if (leaf_level(p[0], p[1]) < k - 1) return false;
     }
   }
-  // A pinned particle must stay active: the centre and side midpoints would not.
+  // A pinned or forced particle must stay active: the centre and side midpoints would not.
   const int points[5][2] = {{fi0 + half, fj0 + half},
                             {fi0, fj0 + half},
                             {fi0 + size, fj0 + half},
                             {fi0 + half, fj0},
                             {fi0 + half, fj0 + size}};
   for (const auto& p : points) {
-    if (mesh.flags[mesh.slot(p[0], p[1])] & kParticlePinned) return false;
+    if (mesh.flags[mesh.slot(p[0], p[1])] & (kParticlePinned | kParticleForced)) return false;
   }
   set_cell(c, k);
   return true;
+}
+
+std::int64_t AdaptiveMesh::refine_to_particle(int i, int j) {
+  std::int64_t split = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int fi = i - 1; fi <= i; ++fi) {
+      for (int fj = j - 1; fj <= j; ++fj) {
+        if (fi < 0 || fj < 0 || fi >= cells_i_ || fj >= cells_j_) continue;
+        const int level = leaf_level(fi, fj), mask = (1 << level) - 1;
+        if ((i & mask) == 0 && (j & mask) == 0) continue;  // (i, j) is a corner of this leaf
+        split += refine(TreeCell{level, fi >> level, fj >> level});
+        changed = true;
+      }
+    }
+  }
+  return split;
 }
 
 bool AdaptiveMesh::balanced() const {
@@ -157,14 +174,15 @@ void AdaptiveMesh::write_mesh(ClothMesh& mesh) const {
   const int size_i = mesh.size_i(), size_j = mesh.size_j();
   auto leaf = [&](int fi, int fj) { return static_cast<int>(leaf_level(fi, fj)); };
 
-  // 1. Node flags (pinned bits are kept: coarsen() never deactivates a pinned particle).
+  // 1. Node flags (pinned and forced bits are kept: coarsen() never deactivates such a
+  // particle, and refinement never turns a particle into a ghost).
   std::int64_t ghosts = 0;
 #pragma omp parallel for schedule(static) reduction(+ : ghosts)
   for (int i = 0; i < size_i; ++i) {
     for (int j = 0; j < size_j; ++j) {
       const std::int32_t s = mesh.slot(i, j);
       const PointKind kind = classify(leaf, cells_i_, cells_j_, i, j);
-      std::uint8_t f = mesh.flags[s] & kParticlePinned;
+      std::uint8_t f = mesh.flags[s] & (kParticlePinned | kParticleForced);
       if (kind.ghost) {
         f = static_cast<std::uint8_t>(kParticleGhost |
                                       (kind.ghost_direction == 0 ? kGhostAlongI : kGhostAlongJ));

@@ -63,8 +63,11 @@ class AdaptiveMesh {
   /// balance. Returns the number of leaves split (0 if c is not a splittable leaf).
   std::int64_t refine(const TreeCell& c);
   /// Merges the four children of c (level >= 1) if all are leaves, the merge keeps 2:1
-  /// balance and no pinned particle would stop being active. Returns true if merged.
+  /// balance and no pinned or forced particle would stop being active. Returns true if merged.
   bool coarsen(const TreeCell& c, const ClothMesh& mesh);
+  /// Splits the leaves around grid point (i, j) until it is a corner of every leaf it touches
+  /// (an active particle once the mesh is rewritten). Returns the number of leaves split.
+  std::int64_t refine_to_particle(int i, int j);
 
   /// True if every two edge-adjacent leaves differ by at most one level.
   [[nodiscard]] bool balanced() const;

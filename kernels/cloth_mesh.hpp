@@ -27,6 +27,7 @@ enum ParticleFlag : std::uint8_t {
   kParticlePinned = 4,  ///< active but held fixed
   kGhostAlongI = 8,     ///< a ghost on a coarse edge along i: its parents are prev/next along d = 0
   kGhostAlongJ = 16,    ///< a ghost on a coarse edge along j: its parents are prev/next along d = 1
+  kParticleForced = 32, ///< carries a scripted external force (ClothState::external_forces)
 };
 
 /// Grid direction along which ghost `flags` hangs (its parents are prev/next along it), or -1.

@@ -18,6 +18,12 @@ inline Eigen::Map<const Eigen::Vector3d> vec3(const std::vector<double>& a, std:
   return Eigen::Map<const Eigen::Vector3d>(a.data() + 3 * s);
 }
 
+/// A scripted external force on one particle (N); the particle's slot carries kParticleForced.
+struct ExternalForce {
+  std::int64_t slot = 0;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+};
+
 /// Per-slot and per-element arrays of one cloth.
 struct ClothState {
   // particles (3 doubles per slot)
@@ -36,6 +42,8 @@ struct ClothState {
   /// Per step: 2 per id, curvatures where the bending loading / unloading curve reaches M_t
   /// (the return mapping's breakpoints; an inverse of a non-power-law curve, so cached).
   std::vector<double> triple_breakpoints;
+  /// External forces (sparse: a few particles at most; looked up only for forced slots).
+  std::vector<ExternalForce> external_forces;
 
   /// Allocates every array for `slots` particles (zero-filled).
   void allocate(std::int64_t slots) {

@@ -80,6 +80,17 @@ class TilePartials {
 /// No reduction: the accumulator of loops that only write element slots.
 struct NoReduction {};
 
+/// The tile context of loops without per-tile set-up.
+struct NoTileContext {};
+
+/// No per-tile set-up (the plain for_each).
+struct NoPrepare {
+  template <class Acc>
+  NoTileContext operator()(std::int64_t /*tile*/, Acc& /*acc*/) const {
+    return {};
+  }
+};
+
 /// Seconds from a monotonic clock.
 inline double monotonic_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
@@ -98,14 +109,39 @@ class LoopRunner {
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
   template <class Acc, class Body>
   void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body) {
+    NoPrepare none;
     run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
-                  body);
+                  none, [&](std::int64_t id, Acc& acc, NoTileContext) { body(id, acc); });
   }
 
   /// Same with no reduction.
   template <class Body>
   void for_each(ElementKind kind, Body&& body) {
-    run_loop<NoReduction>(kind, nullptr, [&](std::int64_t id, NoReduction&) { body(id); });
+    NoPrepare none;
+    run_loop<NoReduction>(kind, nullptr, none,
+                          [&](std::int64_t id, NoReduction&, NoTileContext) { body(id); });
+  }
+
+  /// As for_each with per-tile set-up (e.g. the contact broad phase): before the elements of
+  /// tile t, context = prepare(t, acc) (acc: the tile's fresh accumulator), then
+  /// body(id, acc, context) for each. The context is the only safe home of per-tile state: a
+  /// tile may run on another thread than the caller's (taskloop), so never the caller's
+  /// locals. Over blocks every tile is prepared, over lists every tile with entries.
+  template <class Acc, class Prepare, class Body>
+  void for_each_prepared(ElementKind kind, TilePartials<Acc>* partials, Prepare&& prepare,
+                         Body&& body) {
+    run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
+                  prepare, body);
+  }
+
+  /// Same with no reduction: context = prepare(tile), body(id, context).
+  template <class Prepare, class Body>
+  void for_each_prepared(ElementKind kind, Prepare&& prepare, Body&& body) {
+    auto tile_start = [&](std::int64_t tile, NoReduction&) { return prepare(tile); };
+    run_loop<NoReduction>(kind, nullptr, tile_start,
+                          [&](std::int64_t id, NoReduction&, const auto& context) {
+                            body(id, context);
+                          });
   }
 
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
@@ -149,17 +185,19 @@ class LoopRunner {
     uses_.push_back(Use{partials, 0, kind});
     return 0;
   }
-  template <class Acc, class Body>
-  void run_loop(ElementKind kind, Acc* partials, Body&& body);
+  template <class Acc, class Prepare, class Body>
+  void run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body);
 
-  template <class Acc, class Body>
-  void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Body& body) const {
+  template <class Acc, class Prepare, class Body>
+  void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Prepare& prepare,
+                       Body& body) const {
     Acc acc{};
+    const auto context = prepare(t, acc);
     const int per_slot = ids_per_slot(kind);
     for (std::int64_t s = mesh_.tile_slot_begin[t]; s < mesh_.tile_slot_begin[t + 1]; ++s) {
       for (int d = 0; d < per_slot; ++d) {
         const std::int64_t id = per_slot * s + d;
-        if (element_is_live(mesh_, kind, id)) body(id, acc);
+        if (element_is_live(mesh_, kind, id)) body(id, acc, context);
       }
     }
     if (partials != nullptr) partials[t] = acc;
@@ -174,8 +212,8 @@ class LoopRunner {
   std::vector<Use> uses_;  // buffer in use (and loop kind) per partials array
 };
 
-template <class Acc, class Body>
-void LoopRunner::run_loop(ElementKind kind, Acc* partials, Body&& body) {
+template <class Acc, class Prepare, class Body>
+void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body) {
   const int thread = omp_get_thread_num();
   const bool timed = instrumentation_ != Instrumentation::off && times_ != nullptr;
   const double entry = timed ? monotonic_seconds() : 0.0;
@@ -204,7 +242,7 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Body&& body) {
     auto range = [&](std::int64_t b0, std::int64_t b1) {
       timed_call([&] {
         for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {
-          run_tile_blocks(kind, t, partials, body);
+          run_tile_blocks(kind, t, partials, prepare, body);
         }
       });
     };
@@ -227,7 +265,10 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Body&& body) {
         for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
           if (begin[t + 1] == begin[t]) continue;
           Acc acc{};
-          for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) body(list.entries[q], acc);
+          const auto context = prepare(t, acc);
+          for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) {
+            body(list.entries[q], acc, context);
+          }
           if (partials != nullptr) partials[t] = acc;
         }
       });

@@ -24,6 +24,16 @@ class Obstacle {
 
   /// Which analytic shape this is.
   ObstacleKind kind() const { return kind_; }
+  /// Centre (for a plane: a point on it), m.
+  const Eigen::Vector3d& center() const { return center_; }
+  /// Moves the obstacle by `displacement`, m (scripted scene events, between steps).
+  void translate(const Eigen::Vector3d& displacement) { center_ += displacement; }
+  /// Magnitude of the numbers its distances are computed from, m: |centre|_inf plus its
+  /// largest extent (scales the rounding margin of the contact broad phase).
+  double coordinate_scale() const {
+    return center_.cwiseAbs().maxCoeff() +
+           std::max({radius_, half_length_, half_extents_.maxCoeff()});
+  }
 
   /// Exact signed distance of `x` to the surface, m (negative inside).
   double signed_distance(const Eigen::Vector3d& x) const {

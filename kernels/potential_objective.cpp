@@ -21,14 +21,19 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
 void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   prepare_history(run);
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s);
-  });
+  run.for_each_prepared(
+      ElementKind::particles,
+      [&](std::int64_t tile) {  // broad phase of the targets the projection starts from
+        return ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.target).mask : kEveryObstacle;
+      },
+      [&](std::int64_t s, ObstacleMask mask) {
+        if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 1.0, mask);
+      });
   refresh_ghosts(run, ctx_.mesh, st.position);
   refresh_preconditioner(run);
 }
 
-Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s) const {
+Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask mask) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -68,7 +73,7 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s) const {
       add_triple(element_id(p, d), 2);
     }
   }
-  h += contact_penalty(ctx_, s, x(s)).stiffness;
+  h += contact_penalty(ctx_, s, x(s), mask).stiffness;
   return h;
 }
 
@@ -78,14 +83,20 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
   // Without block Jacobi the unknowns are positions in units of the finest spacing h:
   // P^-1 = h^2 I (MODEL.md 5, scaled unknowns).
   const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
-    if (ctx_.is_free(s)) {
-      inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s).inverse())
-                             : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
-    }
-    store_symmetric(st.preconditioner, s, inverse);
-  });
+  run.for_each_prepared(
+      ElementKind::particles,
+      [&](std::int64_t tile) {
+        return block_jacobi && ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.position).mask
+                                                  : kEveryObstacle;
+      },
+      [&](std::int64_t s, ObstacleMask mask) {
+        Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+        if (ctx_.is_free(s)) {
+          inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s, mask).inverse())
+                                 : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
+        }
+        store_symmetric(st.preconditioner, s, inverse);
+      });
 }
 
 double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs) const {
@@ -138,6 +149,7 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
   double energy = 0.5 * m / (dt * dt) * (xs - vec3(st.target, s)).squaredNorm() -
                   m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
                   contact_penalty(ctx_, s, xs).energy;
+  if (ctx_.is_forced(s)) energy -= ctx_.external_force(s).dot(xs - vec3(st.step_start, s));
   for (std::int64_t id : edges) energy += edge_term(ctx_, id, x).energy;
   for (std::int64_t id : triples) energy += triple_term(ctx_, id, x).energy;
   return energy;
@@ -181,8 +193,19 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   const double dt = ctx_.config.time.step;
   const double g_ref = ctx_.gravity_reference();
   const Eigen::Vector3d gravity = ctx_.config.time.gravity;
-  run.for_each<GatherSums>(
-      ElementKind::particles, &gather_partials_, [&](std::int64_t s, GatherSums& acc) {
+  // The broad phase runs at the start of each tile, on the positions this loop reads.
+  const bool broad_phase = ctx_.broad_phase();
+  const auto obstacles = static_cast<std::int64_t>(ctx_.obstacles.size());
+  auto prepare = [&](std::int64_t tile, GatherSums& acc) {
+    if (!broad_phase) return kEveryObstacle;
+    const TileContacts c = ctx_.tile_contacts(tile, st.position);
+    acc.contact_tested += c.tested;
+    acc.contact_skipped += c.skipped;
+    return c.mask;
+  };
+  run.for_each_prepared<GatherSums>(
+      ElementKind::particles, &gather_partials_, prepare,
+      [&](std::int64_t s, GatherSums& acc, ObstacleMask mask) {
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) {
           g.setZero();
@@ -191,7 +214,8 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
         const double m = mesh.mass[s];
         const Eigen::Vector3d xs = x(s);
         const Eigen::Vector3d offset = xs - vec3(st.target, s);
-        const ContactPenalty contact = contact_penalty(ctx_, s, xs);
+        const ContactPenalty contact = contact_penalty(ctx_, s, xs, mask);
+        if (!broad_phase) acc.contact_tested += obstacles;
         acc.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
                       m * gravity.dot(xs - vec3(st.step_start, s)) + contact.energy;
         if (numeric) {
@@ -199,6 +223,11 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
         } else {
           g = m / (dt * dt) * offset - m * gravity + contact.gradient +
               gather_elastic_gradient(mesh, st, s, x);
+        }
+        if (ctx_.is_forced(s)) {  // the scripted force f: -f . (x - x^n) in Phi
+          const Eigen::Vector3d f = ctx_.external_force(s);
+          acc.energy -= f.dot(xs - vec3(st.step_start, s));
+          if (!numeric) g -= f;
         }
         const Eigen::Vector3d z = apply_symmetric(st.preconditioner, s, g);
         const double ratio = g.norm() / (m * g_ref);
@@ -221,6 +250,9 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   e.residual_max = p.residual_max;
   e.cost = p.residual_sq;
   e.free_particles = p.free_particles;
+  e.contact_tested = p.contact_tested;
+  e.contact_skipped = p.contact_skipped;
+  count_contact_work(e);
   return e;
 }
 

@@ -1,7 +1,8 @@
 // The `potential` formulation (MODEL.md 4B, the default): positions are the only unknowns,
 // element forces follow by return mapping onto the KES bands, and one step minimises
-// Phi(x) = sum m |x - x~|^2 / (2 dt^2) - sum m g . (x - x^n) + elastic potentials + contact.
-// (Gravity is measured from x^n so that Phi stays small and its changes resolvable.)
+// Phi(x) = sum m |x - x~|^2 / (2 dt^2) - sum (m g + f) . (x - x^n) + elastic potentials + contact
+// (f: scripted external forces; loads are measured from x^n so that Phi stays small and its
+// changes resolvable).
 #pragma once
 
 #include <vector>
@@ -27,8 +28,9 @@ class PotentialObjective final : public StepObjective {
   /// (the local cost the numeric gradient differentiates).
   double local_energy(std::int64_t s, const Eigen::Vector3d& xs) const;
   Eigen::Vector3d numeric_gradient(std::int64_t s) const;
-  /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact).
-  Eigen::Matrix3d diagonal_block(std::int64_t s) const;
+  /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact with the
+  /// obstacles in `mask`).
+  Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;

@@ -21,6 +21,7 @@ Simulation::Simulation(const SimulationConfig& config)
       material_(FabricMaterial::from_kes(config.fabric)),
       mesh_(config.cloth, material_.areal_density) {
   for (const ObstacleConfig& o : config_.obstacles) obstacles_.emplace_back(o);
+  check_events();
   state_.allocate(mesh_.slot_count());
   place_initial_positions();
   if (config_.amrc.enabled) {
@@ -65,13 +66,15 @@ void Simulation::place_initial_positions() {
 StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation instrumentation,
                             LoopTimes* times) {
   if (driver.space() == schedulers::IterationSpace::active && !lists_built_) rebuild_lists();
-  const ActiveLists* lists = lists_built_ ? &lists_ : nullptr;
   MinimiserSettings settings;
   settings.tolerance = config_.solver.tolerance;
   settings.max_iterations = config_.solver.max_iterations;
   settings.record_values = config_.solver.record_values;
   StepReport report;
   const double start = monotonic_seconds();
+  // Scripted events are sequential state changes between steps: part of the step's time.
+  if (!config_.events.empty()) report.events = apply_events(steps_done_ + 1);
+  const ActiveLists* lists = lists_built_ ? &lists_ : nullptr;
   const double full_step = config_.time.step;
   // The time budget: this step's share of what is left, polled after every CG iteration.
   BudgetPoll budget{0.0, 0};

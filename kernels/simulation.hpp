@@ -32,6 +32,8 @@ struct StepReport {
   int rejected = 0;             ///< rejected attempts
   std::int64_t active_elements = 0;  ///< active particles + edges + triples
   std::optional<AmrcEvent> amrc;     ///< the AMRC check that followed the step, if one ran
+  /// Scripted events (indices into SimulationConfig::events) that began before this step.
+  std::vector<int> events;
 };
 
 /// Verification figures of the current state.
@@ -112,6 +114,29 @@ class Simulation {
   /// Steps the caller will run in all (shares the [solver] time budget; default 1: the whole
   /// remaining budget goes to the next step).
   void set_planned_steps(int steps) { planned_steps_ = std::max(1, steps); }
+
+  // --- scripted scene events (MODEL.md 8; simulation_events.cpp) -------------------------
+  // step() applies SimulationConfig::events itself, before the step they are due at; these
+  // also serve hand-driven tests. All act between steps, outside the parallel loops.
+
+  /// Translates obstacle `index` by `displacement` (m). Throws std::out_of_range.
+  void move_obstacle(int index, const Eigen::Vector3d& displacement);
+  /// Frees the pinned particle (i, j), at rest where it is. Throws std::invalid_argument when
+  /// it is not pinned (or outside the grid).
+  void release_pin(int i, int j);
+  /// Sets the external force on particle (i, j) (N), replacing any previous one; a zero
+  /// force clears it. It acts once the particle is free (not while pinned). With AMRC the
+  /// leaves around the particle are split until it is active, and it is kept active (like a
+  /// pin) while the force acts. Throws std::invalid_argument outside the grid.
+  void set_external_force(int i, int j, const Eigen::Vector3d& force);
+  void clear_external_force(int i, int j) { set_external_force(i, j, Eigen::Vector3d::Zero()); }
+
+  /// Switches the contact broad phase (ContactConfig::broad_phase) on or off; results are
+  /// bit-identical either way, only the work differs.
+  void set_broad_phase(bool on) { config_.contact.broad_phase = on; }
+  /// Narrow-phase contact pairs tested / skipped over every evaluation so far.
+  [[nodiscard]] const ContactWork& contact_work() const { return objective_->contact_work(); }
+
   /// How the Active-Lists are rebuilt after an AMRC event (parallel prefix sum by default).
   void set_list_build(ListBuild build) { list_build_ = build; }
   /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
@@ -124,6 +149,13 @@ class Simulation {
 
  private:
   void place_initial_positions();
+  /// Throws std::invalid_argument for an event the kernel cannot apply (the scene loader
+  /// reports the same cases at their file position).
+  void check_events() const;
+  /// Applies the configured events due before step `step`; returns those that begin there.
+  std::vector<int> apply_events(int step);
+  /// Slot of grid point (i, j); throws std::invalid_argument naming `what` outside the grid.
+  [[nodiscard]] std::int64_t grid_slot(int i, int j, const char* what) const;
   /// target = step_start + factor (target - step_start): the carried velocity for a new step
   /// length (called by every thread of the step's region).
   void rescale_velocity(LoopRunner& run, double factor);

@@ -73,6 +73,9 @@ struct ContactConfig {
   /// Penalty stiffness as a multiple of the particle's weight per contact distance:
   /// k_i = stiffness * m_i |g| / d.
   double stiffness = 1.0e4;
+  /// Per-tile broad phase: a tile whose particles are all farther than `distance` from an
+  /// obstacle skips that obstacle's signed distance (exact: the same bits either way).
+  bool broad_phase = true;
 };
 
 /// Nonlinear conjugate-gradient minimisation of one step (MODEL.md section 5).
@@ -115,7 +118,28 @@ struct AmrcConfig {
   double coarsen_threshold = 0.05; ///< coarsen where all turning angles stay below it
 };
 
-/// One simulation: cloth, fabric, obstacles, time step, contact, solver, AMRC.
+/// What a scripted scene event does (MODEL.md section 8).
+enum class SceneEventKind {
+  move_obstacle,  ///< translate an obstacle: once by `displacement`, per step by `velocity` dt
+  release_pin,    ///< the pinned particle becomes free (at rest where it is)
+  force,          ///< a constant external force on one particle (the haptic pull)
+};
+
+/// One scripted event, applied before step `step` (1-based) is simulated. Events that last
+/// (a force, a move with a velocity) act on every step from `step` to `until_step` inclusive.
+struct SceneEvent {
+  SceneEventKind kind = SceneEventKind::force;
+  int step = 1;        ///< first step it acts on
+  int until_step = 1;  ///< last step it acts on (>= step; = step for one-off events)
+  int obstacle = 0;    ///< move_obstacle: index into SimulationConfig::obstacles
+  int particle_i = 0;  ///< release_pin, force: grid coordinates of the particle
+  int particle_j = 0;
+  Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m, move_obstacle, once at `step`
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s, move_obstacle, each step: v dt
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();     ///< N, force
+};
+
+/// One simulation: cloth, fabric, obstacles, time step, contact, solver, AMRC, events.
 struct SimulationConfig {
   ClothConfig cloth;
   KesParameters fabric;
@@ -125,6 +149,7 @@ struct SimulationConfig {
   ContactConfig contact;
   SolverConfig solver;
   AmrcConfig amrc;
+  std::vector<SceneEvent> events;  ///< in file order; several may act on one step
 };
 
 }  // namespace clothbench::kernels

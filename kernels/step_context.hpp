@@ -8,6 +8,7 @@
 
 #include "kernels/cloth_mesh.hpp"
 #include "kernels/cloth_state.hpp"
+#include "kernels/contact_broad_phase.hpp"
 #include "kernels/element_geometry.hpp"
 #include "kernels/ghost_nodes.hpp"
 #include "kernels/kes_material.hpp"
@@ -37,6 +38,26 @@ struct StepContext {
   [[nodiscard]] bool is_free(std::int64_t s) const {
     return (mesh.flags[s] & (kParticleActive | kParticlePinned)) == kParticleActive;
   }
+  /// True when particle s carries a scripted external force.
+  [[nodiscard]] bool is_forced(std::int64_t s) const {
+    return (mesh.flags[s] & kParticleForced) != 0;
+  }
+  /// The scripted external force on particle s (N); zero when there is none.
+  [[nodiscard]] Eigen::Vector3d external_force(std::int64_t s) const {
+    for (const ExternalForce& f : state.external_forces) {
+      if (f.slot == s) return f.force;
+    }
+    return Eigen::Vector3d::Zero();
+  }
+  /// True when the loops that evaluate contact run the per-tile broad phase.
+  [[nodiscard]] bool broad_phase() const {
+    return config.contact.broad_phase && !obstacles.empty();
+  }
+  /// Broad phase of `tile` over `points` (positions or targets): contact_broad_phase.hpp.
+  [[nodiscard]] TileContacts tile_contacts(std::int64_t tile,
+                                           const std::vector<double>& points) const {
+    return kernels::tile_contacts(mesh, obstacles, config.contact.distance, tile, points);
+  }
 };
 
 /// Return mapping with breakpoints computed from the previous force (MODEL.md 4B).
@@ -52,11 +73,15 @@ struct ContactPenalty {
   double support = 0.0;                         ///< summed normal force (N)
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  ///< sum k n n^T (preconditioner)
 };
+/// Obstacles outside `mask` are skipped (the broad phase proved them farther than d).
 inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
-                                      const Eigen::Vector3d& x) {
+                                      const Eigen::Vector3d& x,
+                                      ObstacleMask mask = kEveryObstacle) {
   ContactPenalty c;
   const double d = ctx.config.contact.distance;
-  for (const Obstacle& obstacle : ctx.obstacles) {
+  for (std::size_t k = 0; k < ctx.obstacles.size(); ++k) {
+    if (!may_touch(mask, k)) continue;
+    const Obstacle& obstacle = ctx.obstacles[k];
     Eigen::Vector3d n;
     const double phi = obstacle.signed_distance(x, n);
     if (phi < d) {
@@ -75,14 +100,20 @@ inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
 /// obstacle to `layer` times the contact distance (a falling particle's x~ can lie deep inside
 /// an obstacle, where the penalty would start the minimisation from a huge residual). The
 /// violation formulation's support switches on at the contact distance, so it projects to
-/// the middle of the layer rather than onto the switch.
-inline Eigen::Vector3d initial_guess(const StepContext& ctx, std::int64_t s, double layer = 1.0) {
+/// the middle of the layer rather than onto the switch. `mask` is the broad phase of the
+/// targets; once a projection has moved x off its target every later obstacle is tested.
+inline Eigen::Vector3d initial_guess(const StepContext& ctx, std::int64_t s, double layer = 1.0,
+                                     ObstacleMask mask = kEveryObstacle) {
   Eigen::Vector3d x = vec3(ctx.state.target, s);
   const double d = layer * ctx.config.contact.distance;
-  for (const Obstacle& obstacle : ctx.obstacles) {
+  for (std::size_t k = 0; k < ctx.obstacles.size(); ++k) {
+    if (!may_touch(mask, k)) continue;
     Eigen::Vector3d n;
-    const double phi = obstacle.signed_distance(x, n);
-    if (phi < d) x += (d - phi) * n;
+    const double phi = ctx.obstacles[k].signed_distance(x, n);
+    if (phi < d) {
+      x += (d - phi) * n;
+      mask = kEveryObstacle;
+    }
   }
   return x;
 }

@@ -4,6 +4,8 @@
 // returns the same value on every thread.
 #pragma once
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cstdint>
 
@@ -22,6 +24,17 @@ struct Evaluation {
   double residual_sq = 0.0;     ///< En = sum |r_i|^2 / (m_i |g|)^2 over free particles
   double residual_max = 0.0;    ///< max |r_i| / (m_i |g|)
   std::int64_t free_particles = 0;  ///< particles that are unknowns
+  /// Narrow-phase contact work of this evaluation's residual loop, in particle-obstacle pairs:
+  /// tested (signed distances evaluated) and ruled out by the broad phase.
+  std::int64_t contact_tested = 0;
+  std::int64_t contact_skipped = 0;
+};
+
+/// Contact work summed over every evaluation of a simulation (pairs, as in Evaluation).
+struct ContactWork {
+  std::int64_t tested = 0;
+  std::int64_t skipped = 0;
+  std::int64_t evaluations = 0;
 };
 
 /// Per-tile sums of the particle gather loop.
@@ -33,6 +46,8 @@ struct GatherSums {
   double grad_dot_z = 0.0;
   double grad_old_dot_z = 0.0;
   std::int64_t free_particles = 0;
+  std::int64_t contact_tested = 0;
+  std::int64_t contact_skipped = 0;
   GatherSums& operator+=(const GatherSums& o) {
     energy += o.energy;
     residual_sq += o.residual_sq;
@@ -41,6 +56,8 @@ struct GatherSums {
     grad_dot_z += o.grad_dot_z;
     grad_old_dot_z += o.grad_old_dot_z;
     free_particles += o.free_particles;
+    contact_tested += o.contact_tested;
+    contact_skipped += o.contact_skipped;
     return *this;
   }
 };
@@ -64,6 +81,21 @@ class StepObjective {
   virtual void prepare_history(LoopRunner& run) = 0;
   /// Stores the step's forces (the hysteresis state) and advances the position history.
   virtual void end_step(LoopRunner& run) = 0;
+
+  /// Contact work of every evaluation so far (written by thread 0 of each evaluation).
+  [[nodiscard]] const ContactWork& contact_work() const { return contact_work_; }
+
+ protected:
+  /// Adds one evaluation's counts; called by every thread, counted once.
+  void count_contact_work(const Evaluation& e) {
+    if (omp_get_thread_num() != 0) return;
+    contact_work_.tested += e.contact_tested;
+    contact_work_.skipped += e.contact_skipped;
+    ++contact_work_.evaluations;
+  }
+
+ private:
+  ContactWork contact_work_;
 };
 
 }  // namespace clothbench::kernels

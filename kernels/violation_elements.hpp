@@ -164,7 +164,8 @@ inline TripleViolation triple_violation(const StepContext& ctx, std::int64_t id,
   return tv;
 }
 
-/// Newton residual r_s = m (x_s - x~_s)/dt^2 - m g - F_s of free particle s, computed from
+/// Newton residual r_s = m (x_s - x~_s)/dt^2 - m g - f_s - F_s of free particle s (f_s the
+/// scripted external force, if any), computed from
 /// scratch (no support): forces from the accessors tension(id), moment(id).
 template <class Positions, class Tension, class Moment>
 inline Eigen::Vector3d newton_residual(const StepContext& ctx, std::int64_t s, const Positions& x,
@@ -181,17 +182,21 @@ inline Eigen::Vector3d newton_residual(const StepContext& ctx, std::int64_t s, c
         turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc);
     return Eigen::Vector3d(mesh.triple_width[id] * moment(id) * Eigen::Vector3d(t.a, t.bc, t.c));
   };
-  return m / (dt * dt) * (x(s) - vec3(ctx.state.target, s)) - m * ctx.config.time.gravity +
-         gather_elastic(mesh, s, x, edge, triple);
+  Eigen::Vector3d r = m / (dt * dt) * (x(s) - vec3(ctx.state.target, s)) -
+                      m * ctx.config.time.gravity + gather_elastic(mesh, s, x, edge, triple);
+  if (ctx.is_forced(s)) r -= ctx.external_force(s);  // a scripted force, like gravity
+  return r;
 }
 
 /// Applies the supports of obstacles [0, count), in order, to residual r of a particle at x:
 /// within distance d of obstacle k (outward normal n), lambda = max(0, n . r) and
-/// r <- r - lambda n (MODEL.md 4A).
+/// r <- r - lambda n (MODEL.md 4A). Obstacles outside `mask` are farther than d (broad phase).
 inline Eigen::Vector3d supported_residual(const StepContext& ctx, const Eigen::Vector3d& x,
-                                          Eigen::Vector3d r, std::size_t count) {
+                                          Eigen::Vector3d r, std::size_t count,
+                                          ObstacleMask mask = kEveryObstacle) {
   const double d = ctx.config.contact.distance;
   for (std::size_t k = 0; k < count; ++k) {
+    if (!may_touch(mask, k)) continue;
     Eigen::Vector3d n;
     if (!(ctx.obstacles[k].signed_distance(x, n) < d)) continue;
     const double lambda = n.dot(r);
@@ -206,12 +211,14 @@ inline Eigen::Vector3d supported_residual(const StepContext& ctx, const Eigen::V
 /// Stages are recomputed rather than stored (obstacle counts are small).
 inline Eigen::Vector3d support_adjoint(const StepContext& ctx, const Eigen::Vector3d& x,
                                        const Eigen::Vector3d& r, Eigen::Vector3d bar,
-                                       Eigen::Vector3d& grad_x) {
+                                       Eigen::Vector3d& grad_x,
+                                       ObstacleMask mask = kEveryObstacle) {
   const double d = ctx.config.contact.distance;
   for (std::size_t k = ctx.obstacles.size(); k-- > 0;) {
+    if (!may_touch(mask, k)) continue;
     Eigen::Vector3d n;
     if (!(ctx.obstacles[k].signed_distance(x, n) < d)) continue;
-    const Eigen::Vector3d before = supported_residual(ctx, x, r, k);
+    const Eigen::Vector3d before = supported_residual(ctx, x, r, k, mask);
     const double lambda = n.dot(before);
     if (!(lambda > 0.0)) continue;
     const double bar_n = bar.dot(n);
@@ -224,12 +231,13 @@ inline Eigen::Vector3d support_adjoint(const StepContext& ctx, const Eigen::Vect
 /// Non-penetration cost of a particle at x: sum over obstacles of (max(0, d - sdf) / d)^2,
 /// and (if not null) its gradient -2 (d - sdf) / d^2 n.
 inline double penetration_cost(const StepContext& ctx, const Eigen::Vector3d& x,
-                               Eigen::Vector3d* gradient) {
+                               Eigen::Vector3d* gradient, ObstacleMask mask = kEveryObstacle) {
   const double d = ctx.config.contact.distance;
   double cost = 0.0;
-  for (const Obstacle& obstacle : ctx.obstacles) {
+  for (std::size_t k = 0; k < ctx.obstacles.size(); ++k) {
+    if (!may_touch(mask, k)) continue;
     Eigen::Vector3d n;
-    const double depth = d - obstacle.signed_distance(x, n);
+    const double depth = d - ctx.obstacles[k].signed_distance(x, n);
     if (depth > 0.0) {
       cost += depth * depth / (d * d);
       if (gradient != nullptr) *gradient -= 2.0 * depth / (d * d) * n;

@@ -17,6 +17,8 @@ ViolationObjective::ResidualSums& ViolationObjective::ResidualSums::operator+=(
   contact += o.contact;
   residual_max = std::max(residual_max, o.residual_max);
   free_particles += o.free_particles;
+  contact_tested += o.contact_tested;
+  contact_skipped += o.contact_skipped;
   return *this;
 }
 
@@ -47,9 +49,14 @@ void ViolationObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   prepare_history(run);
   // Positions start at the inertial target; forces keep their previous values (warm start).
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 0.5);
-  });
+  run.for_each_prepared(
+      ElementKind::particles,
+      [&](std::int64_t tile) {  // broad phase of the targets the projection starts from
+        return ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.target).mask : kEveryObstacle;
+      },
+      [&](std::int64_t s, ObstacleMask mask) {
+        if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 0.5, mask);
+      });
   refresh_ghosts(run, ctx_.mesh, st.position);
   refresh_preconditioner(run);
 }
@@ -101,9 +108,19 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
   // 1, 2: element coefficients and band violations.
   element_loops(run, &edge_value_partials_, &triple_value_partials_);
 
-  // 3: residuals, supports, dE/dr and the particle's own gradient terms.
-  run.for_each<ResidualSums>(
-      ElementKind::particles, &residual_partials_, [&](std::int64_t s, ResidualSums& acc) {
+  // 3: residuals, supports, dE/dr and the particle's own gradient terms. The contact broad
+  // phase runs at the start of each tile, on the positions this loop reads.
+  const bool broad_phase = ctx_.broad_phase();
+  auto prepare = [&](std::int64_t tile, ResidualSums& acc) {
+    if (!broad_phase) return kEveryObstacle;
+    const TileContacts c = ctx_.tile_contacts(tile, st.position);
+    acc.contact_tested += c.tested;
+    acc.contact_skipped += c.skipped;
+    return c.mask;
+  };
+  run.for_each_prepared<ResidualSums>(
+      ElementKind::particles, &residual_partials_, prepare,
+      [&](std::int64_t s, ResidualSums& acc, ObstacleMask mask) {
         auto r_bar = vec3(vs_.rho, s);
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) {
@@ -113,19 +130,22 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
         }
         const double m = mesh.mass[s];
         const Eigen::Vector3d xs = x(s);
-        const Eigen::Vector3d r = m / (dt * dt) * (xs - vec3(st.target, s)) - m * gravity +
-                                  gather_elastic_gradient(mesh, st, s, x);
-        const Eigen::Vector3d supported = supported_residual(ctx_, xs, r, obstacle_count);
+        Eigen::Vector3d r = m / (dt * dt) * (xs - vec3(st.target, s)) - m * gravity +
+                            gather_elastic_gradient(mesh, st, s, x);
+        if (ctx_.is_forced(s)) r -= ctx_.external_force(s);  // constant: dr/dx is unchanged
+        if (!broad_phase) acc.contact_tested += static_cast<std::int64_t>(obstacle_count);
+        const Eigen::Vector3d supported = supported_residual(ctx_, xs, r, obstacle_count, mask);
         const double inverse_weight = 1.0 / (m * g_ref);
         const double ratio_sq = supported.squaredNorm() * inverse_weight * inverse_weight;
         acc.newton += ratio_sq;
         acc.residual_max = std::max(acc.residual_max, std::sqrt(ratio_sq));
         acc.free_particles += 1;
         Eigen::Vector3d own = Eigen::Vector3d::Zero();
-        acc.contact += penetration_cost(ctx_, xs, &own);
+        acc.contact += penetration_cost(ctx_, xs, &own, mask);
         own *= scales_.contact;
         const Eigen::Vector3d bar = support_adjoint(
-            ctx_, xs, r, 2.0 * scales_.newton * inverse_weight * inverse_weight * supported, own);
+            ctx_, xs, r, 2.0 * scales_.newton * inverse_weight * inverse_weight * supported, own,
+            mask);
         r_bar = bar;
         g = own + m / (dt * dt) * bar;
       });
@@ -268,11 +288,14 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
   e.slope = cg.slope;
   e.grad_dot_z = cg.grad_dot_z;
   e.grad_old_dot_z = cg.grad_old_dot_z;
+  e.contact_tested = res.contact_tested;
+  e.contact_skipped = res.contact_skipped;
+  count_contact_work(e);
   if (omp_get_thread_num() == 0) components_ = {res.newton, stretch, bend, res.contact};
   return e;
 }
 
-Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s) const {
+Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s, ObstacleMask mask) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -332,9 +355,10 @@ Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s) const {
   // (measured on a 21x21 box drape: 13 of 20 steps stalled with it, none without).
   block += newton_weight(s) * own.transpose() * own;
   const double distance = ctx_.config.contact.distance;
-  for (const Obstacle& obstacle : ctx_.obstacles) {
+  for (std::size_t k = 0; k < ctx_.obstacles.size(); ++k) {
+    if (!may_touch(mask, k)) continue;
     Eigen::Vector3d normal;
-    if (obstacle.signed_distance(x(s), normal) < distance) {
+    if (ctx_.obstacles[k].signed_distance(x(s), normal) < distance) {
       block += 2.0 * scales_.contact / (distance * distance) * normal * normal.transpose();
     }
   }
@@ -354,14 +378,20 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
     const double mg = mesh.mass[j] * g_ref;
     return 2.0 * scales_.newton / (mg * mg);
   };
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
-    if (ctx_.is_free(s)) {
-      inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s).inverse())
-                             : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
-    }
-    store_symmetric(st.preconditioner, s, inverse);
-  });
+  run.for_each_prepared(
+      ElementKind::particles,
+      [&](std::int64_t tile) {
+        return block_jacobi && ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.position).mask
+                                                  : kEveryObstacle;
+      },
+      [&](std::int64_t s, ObstacleMask mask) {
+        Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+        if (ctx_.is_free(s)) {
+          inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s, mask).inverse())
+                                 : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
+        }
+        store_symmetric(st.preconditioner, s, inverse);
+      });
   // Forces: scaled by their references, or the Gauss-Newton diagonal of E (the support
   // projections are left out of the force diagonals).
   run.for_each(ElementKind::edges, [&](std::int64_t id) {

@@ -84,8 +84,9 @@ class ViolationObjective final : public StepObjective {
   /// Loops 1 and 2 (element coefficients into the scratch arrays); partials when not null.
   void element_loops(LoopRunner& run, TilePartials<ScalarSum>* edge_partials,
                      TilePartials<ScalarSum>* triple_partials);
-  /// Gauss-Newton 3x3 diagonal block of E at free particle s (supports not applied).
-  Eigen::Matrix3d diagonal_block(std::int64_t s) const;
+  /// Gauss-Newton 3x3 diagonal block of E at free particle s (supports not applied; contact
+  /// with the obstacles in `mask`).
+  Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
 
   StepContext ctx_;
   ViolationScales scales_;
@@ -94,7 +95,7 @@ class ViolationObjective final : public StepObjective {
   TilePartials<ScalarSum> edge_value_partials_, triple_value_partials_;
   struct ResidualSums {
     double newton = 0.0, contact = 0.0, residual_max = 0.0;
-    std::int64_t free_particles = 0;
+    std::int64_t free_particles = 0, contact_tested = 0, contact_skipped = 0;
     ResidualSums& operator+=(const ResidualSums& o);
   };
   struct CgSums {

@@ -33,7 +33,31 @@ void verify_state(const kernels::Simulation& simulation, const kernels::StateDia
   }
 }
 
+std::string vector_text(const Eigen::Vector3d& v) {
+  return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x(), v.y(), v.z());
+}
+
 }  // namespace
+
+std::string describe_event(const kernels::SceneEvent& e) {
+  const std::string until =
+      e.until_step > e.step ? fmt::format(" through step {}", e.until_step) : "";
+  switch (e.kind) {
+    case kernels::SceneEventKind::move_obstacle:
+      if (!e.velocity.isZero(0.0)) {
+        return fmt::format("move-obstacle: obstacle {} moves at {} m/s{}", e.obstacle,
+                           vector_text(e.velocity), until);
+      }
+      return fmt::format("move-obstacle: obstacle {} moved by {} m", e.obstacle,
+                         vector_text(e.displacement));
+    case kernels::SceneEventKind::release_pin:
+      return fmt::format("release-pin: particle ({}, {}) is free", e.particle_i, e.particle_j);
+    case kernels::SceneEventKind::force:
+      return fmt::format("force: {} N on particle ({}, {}){}", vector_text(e.force), e.particle_i,
+                         e.particle_j, until);
+  }
+  return "event";
+}
 
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
                     bool quiet) {
@@ -63,6 +87,12 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
       const kernels::AmrcEvent& e = *report.amrc;
       summary.amrc_events.push_back(e);
       summary.amrc_seconds += e.criterion_seconds + e.update_seconds + e.list_seconds;
+    }
+    for (const int index : report.events) {
+      const kernels::SceneEvent& event = simulation.config().events[static_cast<std::size_t>(index)];
+      const AppliedEvent applied{report.step, index, describe_event(event)};
+      if (!quiet) fmt::print("  event before step {:4d}: {}\n", applied.step, applied.text);
+      summary.events.push_back(applied);
     }
     if (!quiet) {
       fmt::print("  step {:4d}  iterations {:4d}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
@@ -99,6 +129,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
       summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());
   summary.final_state = simulation.diagnostics();
   summary.simulation_bytes = simulation.memory_bytes();
+  summary.contact_work = simulation.contact_work();
   verify_state(simulation, summary.final_state, simulation.steps_done(), summary);
   return summary;
 }
@@ -119,6 +150,14 @@ void print_summary(const RunSummary& s) {
   fmt::print("  max surface penetration  {:.3e} m (interpolated surface)\n",
              d.max_surface_penetration);
   fmt::print("  max strain               {:.4f}\n", d.max_strain);
+  const kernels::ContactWork& w = s.contact_work;
+  if (w.tested + w.skipped > 0) {
+    fmt::print("  contact narrow phase     {} particle-obstacle tests in {} evaluations ({:.1f} % "
+               "ruled out by the broad phase)\n",
+               w.tested, w.evaluations,
+               100.0 * static_cast<double>(w.skipped) / static_cast<double>(w.tested + w.skipped));
+  }
+  if (!s.events.empty()) fmt::print("  scripted events          {} applied\n", s.events.size());
   fmt::print("  mass error               {:.3e} (relative)\n", s.mass_error);
   if (!s.amrc_events.empty()) {
     const kernels::AmrcEvent& last = s.amrc_events.back();
@@ -175,6 +214,16 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"memory", {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
       {"steps", steps}};
+  if (!s.events.empty()) {
+    nlohmann::json events = nlohmann::json::array();
+    for (const AppliedEvent& e : s.events) {
+      events.push_back({{"step", e.step}, {"index", e.index}, {"text", e.text}});
+    }
+    doc["events"] = events;
+  }
+  doc["contact_work"] = {{"tested", s.contact_work.tested},
+                         {"skipped", s.contact_work.skipped},
+                         {"evaluations", s.contact_work.evaluations}};
   if (!s.non_finite.empty()) doc["non_finite"] = {{"step", s.non_finite_step}, {"where", s.non_finite}};
   if (scene.simulation.amrc.enabled) {
     nlohmann::json events = nlohmann::json::array();

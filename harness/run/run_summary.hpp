@@ -36,6 +36,13 @@ struct StepRecord {
   int sub_steps = 1;  ///< accepted sub-steps (rejected steps are redone with half the length)
 };
 
+/// A scripted scene event as the run applied it.
+struct AppliedEvent {
+  int step = 0;       ///< the step it was applied before
+  int index = 0;      ///< its place among the scene's [[event]] tables
+  std::string text;   ///< e.g. "force (0, 0, 0.05) N on particle (16, 16) through step 30"
+};
+
 /// Everything a run measured.
 struct RunSummary {
   std::vector<StepRecord> steps;
@@ -51,6 +58,8 @@ struct RunSummary {
   std::uint64_t peak_resident_bytes = 0;
   std::uint64_t simulation_bytes = 0;
   std::vector<kernels::AmrcEvent> amrc_events;  ///< every AMRC check, in order
+  std::vector<AppliedEvent> events;             ///< every scripted event that began, in order
+  kernels::ContactWork contact_work;            ///< narrow-phase contact pairs, all evaluations
   double amrc_seconds = 0.0;  ///< criterion + mesh update + list rebuild, all events
   /// Where the first non-finite value appeared ("" if none): the run stopped at that step.
   std::string non_finite;
@@ -61,6 +70,8 @@ struct RunSummary {
 /// Runs `steps` steps, verifying the state after each; stops early on a non-finite state.
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
                     bool quiet);
+/// One line describing a scripted event (what the run prints when it begins).
+std::string describe_event(const kernels::SceneEvent& event);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
 void print_summary(const RunSummary& summary);
 /// The state when a non-finite value appeared, as JSON (non-finite entries become null).

@@ -11,6 +11,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "harness/scene/event_reader.hpp"
 #include "harness/scene/fabric_reader.hpp"
 #include "harness/scene/initial_overlap.hpp"
 #include "harness/scene/scene.hpp"
@@ -25,8 +26,8 @@ using scene_detail::TableReader;
 
 constexpr std::int64_t kMaxParticles = 1'000'000;  // per direction; far above any sane run
 
-const std::vector<std::string> kSections = {"scene",   "cloth",  "fabric", "time",
-                                            "contact", "solver", "amrc",   "obstacle"};
+const std::vector<std::string> kSections = {"scene",  "cloth", "fabric",   "time", "contact",
+                                            "solver", "amrc",  "obstacle", "event"};
 
 // Where each particle count was written, for the AMRC size check.
 struct ClothSources {
@@ -184,10 +185,11 @@ void read_time(const TableReader& reader, kernels::TimeConfig& time) {
 }
 
 void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
-  reader.allow_only({"distance_m", "stiffness"});
+  reader.allow_only({"distance_m", "stiffness", "broad_phase"});
   if (auto v = reader.number("distance_m", NumberRange::positive(), "m")) contact.distance = *v;
   if (auto v = reader.number("stiffness", NumberRange::positive(), "multiples of m g / d"))
     contact.stiffness = *v;
+  if (auto v = reader.boolean("broad_phase")) contact.broad_phase = *v;
 }
 
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
@@ -411,7 +413,7 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
       fail(file_name, key.source(), name, "",
            value.is_table() ? "unknown section" : "key outside any section", expected);
     }
-    if (name != "obstacle" && !value.is_table()) {
+    if (name != "obstacle" && name != "event" && !value.is_table()) {
       fail(file_name, value.source(), name, "",
            fmt::format("got {}", scene_detail::describe_type(value)),
            fmt::format("expected a [{}] section", name));
@@ -453,6 +455,9 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
   if (const toml::node* obstacles = document.get("obstacle")) {
     const auto obstacle_sources = read_obstacles(*obstacles, file_name, simulation.obstacles);
     check_cloth_starts_outside(simulation, obstacle_sources, file_name);
+  }
+  if (const toml::node* events = document.get("event")) {
+    scene_detail::read_events(*events, file_name, scene.steps, simulation);
   }
   return scene;
 }

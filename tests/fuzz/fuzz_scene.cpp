@@ -142,6 +142,19 @@ void check_accepted(const harness::Scene& scene) {
                 finite(o.half_extents) && std::isfinite(o.radius) && std::isfinite(o.half_length),
             "obstacle sizes > 0");
   }
+  for (const kernels::SceneEvent& e : s.events) {
+    require(e.step >= 1 && e.step <= e.until_step && e.until_step <= scene.steps,
+            "event steps: 1 <= step <= until_step <= steps");
+    require(finite(e.displacement) && finite(e.velocity) && finite(e.force), "event vectors finite");
+    if (e.kind == kernels::SceneEventKind::move_obstacle) {
+      require(e.obstacle >= 0 && e.obstacle < static_cast<int>(s.obstacles.size()),
+              "event obstacle index");
+    } else {
+      require(e.particle_i >= 0 && e.particle_i < c.particles_i && e.particle_j >= 0 &&
+                  e.particle_j < c.particles_j,
+              "event particle inside the grid");
+    }
+  }
   // The run harness estimates the memory before it allocates; the estimate must not wrap.
   const std::size_t bytes = kernels::estimate_memory_bytes(s);
   require(

@@ -71,6 +71,42 @@ TEST(PotentialGradient, MatchesFiniteDifferencesWithContactAndPins) {
   }
 }
 
+TEST(PotentialGradient, MatchesFiniteDifferencesWithExternalForcesAndAMovedObstacle) {
+  for (unsigned seed : {7u, 8u}) {
+    kernels::Simulation sim(testing::small_cloth(true, true));
+    sim.move_obstacle(0, {0.003, -0.002, 0.001});
+    sim.move_obstacle(1, {0.0, 0.004, -0.0005});
+    sim.set_external_force(4, 3, {0.002, -0.001, 0.004});
+    sim.set_external_force(2, 5, {0.0, 0.0, -0.003});
+    sim.set_external_force(0, 0, {0.0, 0.0, 1.0});  // pinned: no effect
+    testing::randomise_state(sim, seed);
+    schedulers::OmpStaticDriver driver;
+    sim.evaluate(driver);
+    int touching = 0;
+    for (double f : sim.contact_forces()) touching += f > 0.0 ? 1 : 0;
+    ASSERT_GT(touching, 0) << "the moved obstacles must still touch the cloth";
+    const GradientComparison c = compare_with_finite_differences(sim);
+    EXPECT_LT(c.relative_error, 1e-6) << "seed " << seed;
+  }
+}
+
+TEST(PotentialGradient, ExternalForceEntersAsMinusForceInTheGradient) {
+  kernels::Simulation plain(testing::small_cloth(true, true));
+  kernels::Simulation pulled(testing::small_cloth(true, true));
+  testing::randomise_state(plain, 3);
+  testing::randomise_state(pulled, 3);
+  const Eigen::Vector3d f(0.01, -0.02, 0.03);
+  pulled.set_external_force(4, 3, f);
+  schedulers::OmpStaticDriver driver;
+  plain.evaluate(driver);
+  pulled.evaluate(driver);
+  for (std::int64_t s = 0; s < plain.mesh().slot_count(); ++s) {
+    const Eigen::Vector3d expected =
+        kernels::vec3(plain.state().gradient, s) - (s == plain.mesh().slot(4, 3) ? f : Eigen::Vector3d::Zero());
+    EXPECT_LT((kernels::vec3(pulled.state().gradient, s) - expected).norm(), 1e-12) << s;
+  }
+}
+
 TEST(PotentialGradient, EveryTermOnItsOwn) {
   // Stretch only (no bending stiffness), bending dominated (very soft tension), no gravity.
   for (int variant = 0; variant < 3; ++variant) {
@@ -92,6 +128,8 @@ TEST(PotentialGradient, NumericModeAgreesWithAnalytic) {
   kernels::Simulation numeric(c);
   testing::randomise_state(analytic, 21);
   testing::randomise_state(numeric, 21);
+  analytic.set_external_force(4, 3, {0.002, -0.001, 0.004});
+  numeric.set_external_force(4, 3, {0.002, -0.001, 0.004});
   schedulers::OmpStaticDriver driver;
   const double value_a = analytic.evaluate(driver).value;
   const double value_n = numeric.evaluate(driver).value;
