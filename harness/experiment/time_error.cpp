@@ -61,7 +61,7 @@ std::vector<Setting> settings(int particles, const double& base_seconds) {
     const std::pair<double, double> thresholds[] = {{0.2, 0.05}, {0.4, 0.1}, {0.1, 0.025}};
     const char* names[] = {"amrc", "amrc-aggressive", "amrc-gentle"};
     for (int k = 0; k < 3; ++k) {
-      const auto [refine, coarsen] = thresholds[k];
+      const double refine = thresholds[k].first, coarsen = thresholds[k].second;
       list.push_back({names[k],
                       fmt::format("AMRC L = {}, refine above {} rad, merge below {} rad", levels,
                                   refine, coarsen),
