@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include <climits>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -18,6 +19,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/report/sweep_table.hpp"
 #include "harness/run/run_scene.hpp"
+#include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/sweep/sweep.hpp"
 
@@ -27,10 +29,12 @@ using clothbench::harness::RunOptions;
 
 constexpr int kExitBadInput = 2;
 
-// `clothbench check`: the scene as the loader understood it.
+// `clothbench check`: the scene as the loader understood it, and whether it fits in memory
+// (a scene that does not is refused as bad input, as `run` would refuse it).
 int check_scene(const std::filesystem::path& file) {
   const auto scene =
       clothbench::harness::load_scene(file, clothbench::harness::default_presets_file());
+  const std::uint64_t memory = clothbench::harness::check_memory(scene);
   const auto& sim = scene.simulation;
   fmt::print(
       "{}: OK\n  name        {}\n  steps       {}\n  cloth       {} x {} particles, {} x {} m, "
@@ -42,6 +46,9 @@ int check_scene(const std::filesystem::path& file) {
       sim.obstacles.size(), sim.time.step,
       sim.amrc.enabled ? fmt::format("{} levels", sim.amrc.levels) : "off",
       scene.source_sha256_or_fnv);
+  fmt::print("  memory      about {:.1f} MiB (estimate; this machine has {:.1f} GiB)\n",
+             static_cast<double>(memory) / (1u << 20),
+             static_cast<double>(clothbench::harness::total_memory_bytes()) / (1u << 30));
   return 0;
 }
 

@@ -78,7 +78,9 @@ std::uint64_t peak_resident_bytes();
 /// Thread count to use: `requested` (>0) or the OpenMP default; throws std::invalid_argument
 /// naming `flag` when it exceeds the hardware threads and oversubscription is not allowed.
 int resolve_threads(int requested, bool allow_oversubscribe, const char* flag);
-/// Throws std::invalid_argument naming the file and key when the scene would not fit in memory.
-void check_memory(const kernels::SimulationConfig& config, const std::filesystem::path& file);
+/// The memory a simulation of `scene` needs (bytes, kernels::estimate_memory_bytes). Throws
+/// SceneError `FILE:LINE:COLUMN: [cloth] particles: ...` (the position of that value in the
+/// scene file) when it exceeds 90 % of this machine's memory.
+std::uint64_t check_memory(const Scene& scene);
 
 }  // namespace clothbench::harness
