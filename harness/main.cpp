@@ -3,6 +3,7 @@
 //   clothbench check SCENE           validate a scene file and print what it configures
 //   clothbench info [--json]         the machine context (harness/machine)
 //   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
+//   clothbench stress [options]      the stress matrix, PASSED/FAILED per cell (harness/stress)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
@@ -21,6 +22,7 @@
 #include "harness/run/run_scene.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
+#include "harness/stress/stress_command.hpp"
 #include "harness/sweep/sweep.hpp"
 
 namespace {
@@ -160,6 +162,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"md", "csv"}));
 
+  clothbench::harness::StressCommand stress_command(app);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -177,6 +181,7 @@ int main(int argc, char** argv) {
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
+    if (stress_command.selected()) return stress_command.run(argc, argv);
     if (*sweep_command) {
       try {
         sweep.schedulers = clothbench::harness::split_list(sweep_schedulers, "--schedulers");

@@ -36,7 +36,7 @@ void verify_state(const kernels::Simulation& simulation, const kernels::StateDia
 }  // namespace
 
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet) {
+                    bool quiet, const StepObserver& observer) {
   RunSummary summary;
   double cost_sum = 0.0;
   for (int k = 0; k < steps; ++k) {
@@ -93,6 +93,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                  record.step, where);
       break;
     }
+    if (observer && !observer(simulation, record)) break;
   }
   summary.average_minimised_cost =
       summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -58,9 +59,14 @@ struct RunSummary {
   Verification verification;
 };
 
-/// Runs `steps` steps, verifying the state after each; stops early on a non-finite state.
+/// Called after every finite step with the simulation and the step's record; returning false
+/// stops the run there (the summary then holds the steps done so far).
+using StepObserver = std::function<bool(const kernels::Simulation&, const StepRecord&)>;
+
+/// Runs `steps` steps, verifying the state after each; stops early on a non-finite state
+/// (or when `observer`, if given, returns false).
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet);
+                    bool quiet, const StepObserver& observer = {});
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
 void print_summary(const RunSummary& summary);
 /// The state when a non-finite value appeared, as JSON (non-finite entries become null).
