@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "harness/report/sweep_table.hpp"
+#include "harness/stress/stress_matrix.hpp"
 
 namespace clothbench::harness {
 
@@ -104,6 +105,12 @@ std::string stress_markdown(const json& document) {
       settings["threads"].get<int>(),
       settings["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
       document["complete"].get<bool>() ? "Complete" : "Incomplete (stopped or still running)");
+  if (settings["size"] == "quick") {
+    out << fmt::format(
+        "The quick size runs every cell on {} x {} particles but the mesh cells, with few "
+        "steps.\n\n",
+        kQuickParticles, kQuickParticles);
+  }
   out << "| cell | change | particles | steps | first non-finite | max strain | max penetration "
          "particles / surface (mm) | cost trend | mass drift | CG iterations per step (mean / "
          "max) | rejected / unconverged steps | time (s) | result |\n";
