@@ -45,7 +45,10 @@ std::string cell_line(const StressCellResult& r) {
       r.name, fmt::format("{}/{}", r.steps_completed, r.steps_planned), r.max_strain,
       millimetres(r.max_particle_penetration), millimetres(r.max_surface_penetration),
       r.cost_trend.ratio
-          ? fmt::format("{:.3g}{}", *r.cost_trend.ratio, r.cost_trend.growing ? " (grows)" : "")
+          ? fmt::format("{:.3g}{}{}", *r.cost_trend.ratio, r.cost_trend.growing ? " (grows)" : "",
+                        r.cost_trend.assessed && !(r.cost_trend.quarter_mean[3] <= r.cost_bound)
+                            ? " (above bound)"
+                            : "")
           : std::string("-"),
       r.mass_drift, static_cast<double>(r.cg_iterations) / std::max(1, r.steps_completed),
       r.max_step_iterations, r.rejected_steps, r.unconverged_steps, r.wall_seconds,
@@ -107,9 +110,10 @@ int run_stress(const StressOptions& options) {
        {{"mass_relative_tolerance", kMassTolerance},
         {"penetration", "particles and interpolated surface less than [contact] distance_m deep"},
         {"cost_growth_factor", kUnboundedGrowthFactor},
-        {"cost_floor",
+        {"cost_bound",
          "reject_residual squared: the squared RMS residual above which the kernel rejects a "
-         "step and redoes it as two half steps"}}},
+         "step and redoes it as two half steps; the last quarter's mean must stay at or below "
+         "it"}}},
       {"cells", json::array()},
       {"summary", {{"planned", cells.size()}, {"finished", 0}, {"passed", 0}, {"failed", 0}}}};
   write_outputs(document, options.output_dir);

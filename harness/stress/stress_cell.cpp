@@ -31,7 +31,24 @@ double kinetic_energy(const kernels::Simulation& simulation) {
   return energy;
 }
 
-void judge(StressCellResult& r) {
+/// Smallest strain of the active edges (-1 for an edge of zero length).
+double min_edge_strain(const kernels::Simulation& simulation) {
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const std::vector<double>& x = simulation.state().position;
+  double smallest = 0.0;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.edge_active[id]) continue;
+    const double length =
+        (kernels::vec3(x, mesh.next[id]) - kernels::vec3(x, kernels::element_slot(id))).norm();
+    smallest = std::min(smallest, length / mesh.edge_rest[id] - 1.0);
+  }
+  return smallest;
+}
+
+}  // namespace
+
+void judge_stress_cell(StressCellResult& r) {
+  r.failures.clear();
   if (r.non_finite) {
     r.failures.push_back(
         fmt::format("step {}: non-finite value: {}", r.non_finite->step, r.non_finite->text));
@@ -60,10 +77,18 @@ void judge(StressCellResult& r) {
         "the step cost grows without bound: last-quarter mean {:.3g} vs first-quarter mean {:.3g}",
         r.cost_trend.quarter_mean[3], r.cost_trend.quarter_mean[0]));
   }
+  // Growth implies leaving the bound (its floor is the bound); the bound alone also catches a
+  // cost that stays far above it without growing.
+  if (!r.cost_trend.growing && r.cost_trend.assessed &&
+      !(r.cost_trend.quarter_mean[3] <= r.cost_bound)) {
+    r.failures.push_back(fmt::format(
+        "the step cost left its bound: last-quarter mean {:.3g} (RMS residual {:.3g} weights) "
+        "above the step-rejection level {:.3g}: those steps were accepted only because their "
+        "halvings ran out",
+        r.cost_trend.quarter_mean[3], std::sqrt(r.cost_trend.quarter_mean[3]), r.cost_bound));
+  }
   r.passed = r.failures.empty();
 }
-
-}  // namespace
 
 std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
                                                 schedulers::LoopDriver& driver,
@@ -88,6 +113,7 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   const StepObserver observe = [&](const kernels::Simulation& sim, const StepRecord& step) {
     const kernels::StateDiagnostics d = sim.diagnostics();
     r.max_strain = std::max(r.max_strain, d.max_strain);
+    r.min_strain = std::min(r.min_strain, min_edge_strain(sim));
     r.max_particle_penetration = std::max(r.max_particle_penetration, -d.min_particle_distance);
     r.max_surface_penetration = std::max(r.max_surface_penetration, d.max_surface_penetration);
     r.max_ghost_offset = std::max(r.max_ghost_offset, d.max_ghost_offset);
@@ -113,7 +139,8 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   }
   // An accepted step's RMS residual stays below reject_residual unless its halvings ran out:
   // below that level the cost is bounded by the kernel's step rejection.
-  r.cost_trend = trend_of(cost, config.solver.reject_residual * config.solver.reject_residual);
+  r.cost_bound = config.solver.reject_residual * config.solver.reject_residual;
+  r.cost_trend = trend_of(cost, r.cost_bound);
   r.work_trend = trend_of(work, 0.0);
   r.kinetic_energy_trend = trend_of(energy, 0.0);
   r.cg_iterations = summary.total_iterations;
@@ -126,7 +153,7 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   }
   r.step_seconds = summary.wall_seconds;
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  judge(r);
+  judge_stress_cell(r);
   return r;
 }
 

@@ -25,14 +25,18 @@ struct StressCellResult {
   int steps_completed = 0;                   ///< steps with a finite state
   std::optional<NonFiniteValue> non_finite;  ///< where the run stopped, if it did
   double max_strain = 0.0;
+  /// Smallest edge strain over the run (-1: an edge of zero length, two particles together).
+  double min_strain = 0.0;
   double max_particle_penetration = 0.0;  ///< m, deepest active particle inside an obstacle
   double max_surface_penetration = 0.0;   ///< m, deepest point of the interpolated surface
   double max_ghost_offset = 0.0;          ///< m, a crack between mesh levels if > 0
   double mass_drift = 0.0;  ///< max over steps of |total mass - density W H| / (density W H)
   /// Per step: the final RMS residual squared (cost / free particles, in weights squared).
-  /// Its floor is [solver] reject_residual squared: the kernel rejects (and redoes as two half
-  /// steps) any step above it until its halvings run out, so below it the cost is bounded.
+  /// Its floor is cost_bound: below it the cost is bounded by the kernel's step rejection.
   Trend cost_trend;
+  /// [solver] reject_residual squared: the kernel rejects (and redoes as two half steps) any
+  /// step above it until its halvings run out; a step above it was accepted only then.
+  double cost_bound = 0.0;
   Trend work_trend;                 ///< CG iterations per step (reported, not judged)
   Trend kinetic_energy_trend;       ///< J, after each step (reported, not judged)
   double max_kinetic_energy = 0.0;  ///< J
@@ -54,10 +58,17 @@ struct StressCellResult {
 /// abandoned and nullopt returned. A cell passes when its state stays finite, the mass stays
 /// exact (relative drift <= 1e-12), neither the particles nor the interpolated surface ever
 /// reach the contact distance inside an obstacle, no ghost leaves its coarse edge, and the
-/// step cost does not grow without bound (Trend::growing).
+/// step cost stays bounded (judge_stress_cell).
 std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
                                                 schedulers::LoopDriver& driver,
                                                 const std::function<bool()>& keep_going);
+
+/// Sets `passed` and `failures` from the figures of `result`: the state stayed finite, the
+/// mass exact, both penetrations below the contact distance, no ghost off its edge, and the
+/// step cost bounded - it does not grow without bound (Trend::growing) and its last-quarter
+/// mean stays at or below cost_bound (above it the steps were accepted only because their
+/// halvings ran out: the minimiser no longer controls the step).
+void judge_stress_cell(StressCellResult& result);
 
 /// Relative mass drift a passing cell may show (rounding of the compensated sum).
 inline constexpr double kMassTolerance = 1e-12;

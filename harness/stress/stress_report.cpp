@@ -28,6 +28,15 @@ json trend_json(const Trend& t) {
           {"grows_without_bound", t.growing}};
 }
 
+/// The cost trend with its bound: the rejection level and whether the last quarter left it.
+json cost_trend_json(const StressCellResult& r) {
+  json t = trend_json(r.cost_trend);
+  t["bound"] = number(r.cost_bound);
+  t["last_quarter_above_bound"] =
+      r.cost_trend.assessed && !(r.cost_trend.quarter_mean[3] <= r.cost_bound);
+  return t;
+}
+
 /// A figure for the Markdown table: `format` applied, "-" for null.
 std::string shown(const json& value, const char* format) {
   if (!value.is_number()) return "-";
@@ -47,6 +56,7 @@ std::string non_finite_text(const json& nf) {
 std::string trend_text(const json& trend) {
   std::string text = shown(trend["last_to_first"], "{:.3g}");
   if (trend["grows_without_bound"].get<bool>()) text += " (grows)";
+  if (trend.value("last_quarter_above_bound", false)) text += " (above bound)";
   return text;
 }
 
@@ -70,12 +80,13 @@ json cell_json(const StressCellResult& r) {
       {"steps", {{"planned", r.steps_planned}, {"completed", r.steps_completed}}},
       {"non_finite", non_finite},
       {"max_strain", number(r.max_strain)},
+      {"min_strain", number(r.min_strain)},
       {"max_penetration_m",
        {{"particles", number(r.max_particle_penetration)},
         {"surface", number(r.max_surface_penetration)}}},
       {"max_ghost_offset_m", number(r.max_ghost_offset)},
       {"mass_drift", number(r.mass_drift)},
-      {"cost_trend", trend_json(r.cost_trend)},
+      {"cost_trend", cost_trend_json(r)},
       {"work_trend", trend_json(r.work_trend)},
       {"kinetic_energy",
        {{"max_j", number(r.max_kinetic_energy)}, {"trend", trend_json(r.kinetic_energy_trend)}}},
@@ -157,7 +168,9 @@ std::string stress_markdown(const json& document) {
          "below the contact distance); *cost trend*: mean of the steps' final squared RMS "
          "residual over the last quarter of the run divided by that of the first quarter, "
          "\"(grows)\" when it grows without bound (last quarter above 10x the larger of the first "
-         "quarter and the step-rejection level, reject_residual squared, and not falling); "
+         "quarter and the step-rejection level, reject_residual squared, and not falling), "
+         "\"(above bound)\" when the last quarter's mean is above that level (its steps were "
+         "accepted only because their halvings ran out); either fails the cell; "
          "*mass drift*: largest relative "
          "error of the total mass over the run (must stay <= 1e-12); *rejected steps*: attempts "
          "redone as two half steps; *unconverged steps*: steps accepted above the solver's "
@@ -181,6 +194,7 @@ std::string stress_csv(const json& document) {
                                            "non_finite_term",
                                            "non_finite_value",
                                            "max_strain",
+                                           "min_strain",
                                            "max_particle_penetration_m",
                                            "max_surface_penetration_m",
                                            "contact_distance_m",
@@ -188,6 +202,7 @@ std::string stress_csv(const json& document) {
                                            "mass_drift",
                                            "cost_last_to_first",
                                            "cost_grows_without_bound",
+                                           "cost_last_quarter_above_bound",
                                            "work_last_to_first",
                                            "max_kinetic_energy_j",
                                            "cg_iterations",
@@ -224,6 +239,7 @@ std::string stress_csv(const json& document) {
                                       nf_field("term"),
                                       nf_field("value"),
                                       c["max_strain"],
+                                      c["min_strain"],
                                       c["max_penetration_m"]["particles"],
                                       c["max_penetration_m"]["surface"],
                                       c["contact_distance_m"],
@@ -231,6 +247,7 @@ std::string stress_csv(const json& document) {
                                       c["mass_drift"],
                                       c["cost_trend"]["last_to_first"],
                                       c["cost_trend"]["grows_without_bound"],
+                                      c["cost_trend"]["last_quarter_above_bound"],
                                       c["work_trend"]["last_to_first"],
                                       c["kinetic_energy"]["max_j"],
                                       c["cg"]["iterations"],
@@ -287,8 +304,8 @@ std::vector<std::string> validate_stress_document(const json& d) {
       expect(c, path, key, &json::is_object);
     }
     expect(c, path, "non_finite", &json::is_object, true);
-    for (const char* key :
-         {"time_step_s", "contact_distance_m", "max_strain", "max_ghost_offset_m", "mass_drift"}) {
+    for (const char* key : {"time_step_s", "contact_distance_m", "max_strain", "min_strain",
+                            "max_ghost_offset_m", "mass_drift"}) {
       expect(c, path, key, &json::is_number, true);
     }
     for (const char* key : {"rejected_steps", "unconverged_steps"}) {
@@ -308,6 +325,7 @@ std::vector<std::string> validate_stress_document(const json& d) {
     inner("max_penetration_m", "surface", &json::is_number, true);
     inner("cost_trend", "last_to_first", &json::is_number, true);
     inner("cost_trend", "grows_without_bound", &json::is_boolean);
+    inner("cost_trend", "last_quarter_above_bound", &json::is_boolean);
     inner("cg", "iterations", &json::is_number_integer);
     inner("seconds", "wall", &json::is_number, true);
   }

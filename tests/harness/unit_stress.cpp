@@ -215,6 +215,39 @@ TEST_F(StressMatrix, ABaseWithoutObstacleIsRefused) {
       std::invalid_argument);
 }
 
+TEST(StressVerdict, EachCriterionFailsTheCellOnItsOwn) {
+  harness::StressCellResult sound;
+  sound.contact_distance = 0.002;
+  sound.cost_bound = 0.01;
+  sound.cost_trend = harness::trend_of({1e-4, 1e-4, 1e-4, 1e-4}, sound.cost_bound);
+  harness::judge_stress_cell(sound);
+  EXPECT_TRUE(sound.passed);
+  EXPECT_TRUE(sound.failures.empty());
+
+  auto fails_with = [&](auto&& spoil, const std::string& message) {
+    harness::StressCellResult r = sound;
+    spoil(r);
+    harness::judge_stress_cell(r);
+    EXPECT_FALSE(r.passed) << message;
+    ASSERT_EQ(r.failures.size(), 1u) << message;
+    EXPECT_THAT(r.failures.front(), HasSubstr(message));
+  };
+  fails_with([](auto& r) { r.non_finite = harness::parse_non_finite(3, "the step's cost"); },
+             "step 3: non-finite value: the step's cost");
+  fails_with([](auto& r) { r.mass_drift = 2e-12; }, "mass drift 2e-12");
+  fails_with([](auto& r) { r.mass_drift = kNan; }, "mass drift nan");
+  fails_with([](auto& r) { r.max_particle_penetration = 0.002; }, "a particle went 0.002 m");
+  fails_with([](auto& r) { r.max_surface_penetration = 0.0021; }, "the interpolated surface");
+  fails_with([](auto& r) { r.max_ghost_offset = 1e-9; }, "crack");
+  // Growing tenfold and more from the rejection level, and still rising.
+  fails_with([](auto& r) { r.cost_trend = harness::trend_of({0.01, 0.02, 0.05, 0.2}, 0.01); },
+             "grows without bound");
+  // Falling, but the last quarter stays far above the rejection level: accepted only because
+  // the halvings ran out (a sheet collapsed by a snap-back did this).
+  fails_with([](auto& r) { r.cost_trend = harness::trend_of({1e12, 4e6, 8e6, 2e7}, 0.01); },
+             "the step cost left its bound");
+}
+
 harness::StressCellResult sample_result(bool passed) {
   harness::StressCellResult r;
   r.name = "dt-0.1";
