@@ -3,6 +3,7 @@
 //   clothbench check SCENE           validate a scene file and print what it configures
 //   clothbench info [--json]         the machine context (harness/machine)
 //   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
+//   clothbench stress [options]      the stress matrix, PASSED/FAILED per cell (harness/stress)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
@@ -11,6 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include <climits>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -19,7 +21,9 @@
 #include "harness/report/sweep_table.hpp"
 #include "harness/experiment/experiment.hpp"
 #include "harness/run/run_scene.hpp"
+#include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
+#include "harness/stress/stress_command.hpp"
 #include "harness/sweep/sweep.hpp"
 
 namespace {
@@ -28,10 +32,12 @@ using clothbench::harness::RunOptions;
 
 constexpr int kExitBadInput = 2;
 
-// `clothbench check`: the scene as the loader understood it.
+// `clothbench check`: the scene as the loader understood it, and whether it fits in memory
+// (a scene that does not is refused as bad input, as `run` would refuse it).
 int check_scene(const std::filesystem::path& file) {
   const auto scene =
       clothbench::harness::load_scene(file, clothbench::harness::default_presets_file());
+  const std::uint64_t memory = clothbench::harness::check_memory(scene);
   const auto& sim = scene.simulation;
   fmt::print(
       "{}: OK\n  name        {}\n  steps       {}\n  cloth       {} x {} particles, {} x {} m, "
@@ -43,6 +49,9 @@ int check_scene(const std::filesystem::path& file) {
       sim.obstacles.size(), sim.time.step,
       sim.amrc.enabled ? fmt::format("{} levels", sim.amrc.levels) : "off",
       scene.source_sha256_or_fnv);
+  fmt::print("  memory      about {:.1f} MiB (estimate; this machine has {:.1f} GiB)\n",
+             static_cast<double>(memory) / (1u << 20),
+             static_cast<double>(clothbench::harness::total_memory_bytes()) / (1u << 30));
   return 0;
 }
 
@@ -188,6 +197,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"md", "csv"}));
 
+  clothbench::harness::StressCommand stress_command(app);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -205,6 +216,7 @@ int main(int argc, char** argv) {
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
+    if (stress_command.selected()) return stress_command.run(argc, argv);
     if (*sweep_command) {
       try {
         sweep.schedulers = clothbench::harness::split_list(sweep_schedulers, "--schedulers");

@@ -147,8 +147,39 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
 AmrcEvent Simulation::adapt() {
   if (!amrc_) throw std::logic_error("Simulation::adapt: AMRC is off for this scene");
   AmrcEvent event = amrc_->run_event(steps_done_, config_.amrc, mesh_, state_);
+  if (event.changed()) {
+    const double start = monotonic_seconds();
+    lift_out_of_obstacles();
+    event.update_seconds += monotonic_seconds() - start;
+  }
   if (event.changed() && lists_built_) event.list_seconds = rebuild_lists();
   return event;
+}
+
+void Simulation::lift_out_of_obstacles() {
+  // New particles start on the old, coarser interpolated surface, which cuts into a curved
+  // obstacle; the penalty would kick such a particle out with thousands of weights in the
+  // next step. It moves out along the normal to the contact distance (with x^n and x~: its
+  // velocity is kept). Particles outside every obstacle are not touched.
+  bool moved = false;
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {
+    if ((mesh_.flags[s] & (kParticleActive | kParticlePinned)) != kParticleActive) continue;
+    for (const Obstacle& o : obstacles_) {
+      Eigen::Vector3d normal;
+      const double phi = o.signed_distance(vec3(state_.position, s), normal);
+      if (!(phi < 0.0)) continue;
+      const Eigen::Vector3d shift = (config_.contact.distance - phi) * normal;
+      for (auto* v : {&state_.position, &state_.step_start, &state_.target}) vec3(*v, s) += shift;
+      moved = true;
+    }
+  }
+  if (!moved) return;
+  for (std::int64_t s = 0; s < mesh_.slot_count(); ++s) {  // ghosts back on their midpoints
+    if (!(mesh_.flags[s] & kParticleGhost)) continue;
+    for (auto* v : {&state_.position, &state_.step_start, &state_.target}) {
+      vec3(*v, s) = node_value(mesh_, *v, s);
+    }
+  }
 }
 
 double Simulation::rebuild_lists() {
@@ -166,6 +197,7 @@ AdaptiveMesh& Simulation::begin_tree_edit() {
 
 void Simulation::end_tree_edit() {
   amrc_->finish_change(mesh_, state_);
+  lift_out_of_obstacles();
   if (lists_built_) rebuild_lists();
 }
 

@@ -156,6 +156,10 @@ class Simulation {
   std::vector<int> apply_events(int step);
   /// Slot of grid point (i, j); throws std::invalid_argument naming `what` outside the grid.
   [[nodiscard]] std::int64_t grid_slot(int i, int j, const char* what) const;
+  /// After an AMRC event: moves every free particle found inside an obstacle out along the
+  /// obstacle's normal to the contact distance (x, x^n and x~ alike) and puts the ghosts back
+  /// on their parents' midpoints. A state with no particle inside an obstacle is unchanged.
+  void lift_out_of_obstacles();
   /// target = step_start + factor (target - step_start): the carried velocity for a new step
   /// length (called by every thread of the step's region).
   void rescale_velocity(LoopRunner& run, double factor);

@@ -70,6 +70,14 @@ std::string cell(const json& value, const char* format = nullptr) {
   return std::abs(v) >= 1.0 ? fmt::format("{:.3f}", v) : fmt::format("{:.3g}", v);
 }
 
+const json& accounting_field(const json& row, const char* key) {
+  static const json null_value = nullptr;
+  const json& a = row["accounting"];
+  return a.is_object() && a.contains(key) ? a[key] : null_value;
+}
+
+}  // namespace
+
 std::string csv_cell(const json& value) {
   if (value.is_null()) return "";
   if (value.is_boolean()) return value.get<bool>() ? "true" : "false";
@@ -83,14 +91,6 @@ std::string csv_cell(const json& value) {
   }
   return text;
 }
-
-const json& accounting_field(const json& row, const char* key) {
-  static const json null_value = nullptr;
-  const json& a = row["accounting"];
-  return a.is_object() && a.contains(key) ? a[key] : null_value;
-}
-
-}  // namespace
 
 void add_derived(json& document) {
   std::map<std::string, double> own_baseline;

@@ -22,6 +22,10 @@ std::string format_markdown(const nlohmann::json& document);
 /// CSV (RFC 4180, header line, one line per row, empty cell for a missing value).
 std::string format_csv(const nlohmann::json& document);
 
+/// One CSV field (RFC 4180): empty for null, true/false, integers as such, other numbers with
+/// 9 significant digits, text quoted when it holds a comma, quote or line break.
+std::string csv_cell(const nlohmann::json& value);
+
 /// Reads and validates a sweep document; throws std::invalid_argument naming the file and
 /// the first problems when it cannot be read, parsed or is not a valid sweep document.
 nlohmann::json load_sweep_document(const std::filesystem::path& file);

@@ -62,16 +62,19 @@ int resolve_threads(int requested, bool allow_oversubscribe, const char* flag) {
   return threads;
 }
 
-void check_memory(const kernels::SimulationConfig& config, const std::filesystem::path& file) {
+std::uint64_t check_memory(const Scene& scene) {
+  const kernels::SimulationConfig& config = scene.simulation;
   const std::uint64_t needed = kernels::estimate_memory_bytes(config);
   const std::uint64_t available = total_memory_bytes();
   if (needed > available * 9 / 10) {
-    throw std::invalid_argument(fmt::format(
-        "{}: [cloth] particles: {} x {} particles need about {:.1f} GiB, but this machine has "
-        "{:.1f} GiB of memory",
-        file.string(), config.cloth.particles_i, config.cloth.particles_j,
+    throw SceneError(fmt::format(
+        "{}:{}:{}: [cloth] particles: {} x {} particles need about {:.1f} GiB, but this machine "
+        "has {:.1f} GiB of memory",
+        scene.file.string(), scene.particles_position.line, scene.particles_position.column,
+        config.cloth.particles_i, config.cloth.particles_j,
         static_cast<double>(needed) / (1u << 30), static_cast<double>(available) / (1u << 30)));
   }
+  return needed;
 }
 
 int run_scene(const RunOptions& options) {
@@ -81,7 +84,7 @@ int run_scene(const RunOptions& options) {
   try {
     scene = load_scene(options.scene_file, default_presets_file());
     apply_overrides(options, scene);
-    check_memory(scene.simulation, scene.file);
+    check_memory(scene);
     threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
     driver = schedulers::make_driver(options.scheduler);
   } catch (const SceneError& error) {

@@ -60,7 +60,7 @@ std::string describe_event(const kernels::SceneEvent& e) {
 }
 
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet) {
+                    bool quiet, const StepObserver& observer) {
   RunSummary summary;
   double cost_sum = 0.0;
   simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
@@ -124,6 +124,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                  record.step, where);
       break;
     }
+    if (observer && !observer(simulation, record)) break;
   }
   summary.average_minimised_cost =
       summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -67,9 +68,14 @@ struct RunSummary {
   Verification verification;
 };
 
-/// Runs `steps` steps, verifying the state after each; stops early on a non-finite state.
+/// Called after every finite step with the simulation and the step's record; returning false
+/// stops the run there (the summary then holds the steps done so far).
+using StepObserver = std::function<bool(const kernels::Simulation&, const StepRecord&)>;
+
+/// Runs `steps` steps, verifying the state after each; stops early on a non-finite state
+/// (or when `observer`, if given, returns false).
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet);
+                    bool quiet, const StepObserver& observer = {});
 /// One line describing a scripted event (what the run prints when it begins).
 std::string describe_event(const kernels::SceneEvent& event);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
@@ -89,7 +95,9 @@ std::uint64_t peak_resident_bytes();
 /// Thread count to use: `requested` (>0) or the OpenMP default; throws std::invalid_argument
 /// naming `flag` when it exceeds the hardware threads and oversubscription is not allowed.
 int resolve_threads(int requested, bool allow_oversubscribe, const char* flag);
-/// Throws std::invalid_argument naming the file and key when the scene would not fit in memory.
-void check_memory(const kernels::SimulationConfig& config, const std::filesystem::path& file);
+/// The memory a simulation of `scene` needs (bytes, kernels::estimate_memory_bytes). Throws
+/// SceneError `FILE:LINE:COLUMN: [cloth] particles: ...` (the position of that value in the
+/// scene file) when it exceeds 90 % of this machine's memory.
+std::uint64_t check_memory(const Scene& scene);
 
 }  // namespace clothbench::harness

@@ -23,6 +23,12 @@ class SceneError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A place in a scene file (1-based line and column), as the loader's messages name it.
+struct SourcePosition {
+  unsigned line = 1;
+  unsigned column = 1;
+};
+
 /// One loaded scene: the validated simulation plus what identifies its source.
 struct Scene {
   std::string name;            ///< [scene] name; the file's stem when absent
@@ -33,6 +39,9 @@ struct Scene {
   std::string source_sha256_or_fnv;
   int steps = 100;                       ///< [scene] steps: time steps to simulate (>= 1)
   kernels::SimulationConfig simulation;  ///< every value checked, vectors normalised
+  /// Where the value of [cloth] particles is written: checks made after loading (the memory
+  /// estimate) name FILE:LINE:COLUMN like the loader's own errors.
+  SourcePosition particles_position;
 };
 
 /// Reads, parses and validates `scene_file`. `presets_file` is read only when the scene

@@ -29,9 +29,11 @@ constexpr std::int64_t kMaxParticles = 1'000'000;  // per direction; far above a
 const std::vector<std::string> kSections = {"scene",  "cloth", "fabric",   "time", "contact",
                                             "solver", "amrc",  "obstacle", "event"};
 
-// Where each particle count was written, for the AMRC size check.
+// Where the particle counts were written: each count (for the AMRC size check) and the
+// whole [I, J] value (kept in Scene for the memory check).
 struct ClothSources {
   toml::source_region particles[2];
+  toml::source_region particles_value;
 };
 
 // A unit vector from `key`, or a failure when it has zero length.
@@ -69,6 +71,7 @@ ClothSources read_cloth(const TableReader& reader, kernels::ClothConfig& cloth) 
   const toml::array& counts = *reader.node("particles")->as_array();
   sources.particles[0] = counts.get(0)->source();
   sources.particles[1] = counts.get(1)->source();
+  sources.particles_value = reader.where("particles");
 
   if (auto v = reader.number_pair("size_m", NumberRange::positive(), "m")) {
     cloth.size_i = (*v)[0];
@@ -433,6 +436,10 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
          "expected [cloth] with at least particles = [I, J]");
   }
   const ClothSources sources = read_cloth(*cloth, simulation.cloth);
+  if (sources.particles_value.begin.line > 0) {
+    scene.particles_position.line = sources.particles_value.begin.line;
+    scene.particles_position.column = std::max(1u, sources.particles_value.begin.column);
+  }
   const toml::node* fabric = document.get("fabric");
   read_fabric_choice(*cloth, fabric != nullptr ? fabric->as_table() : nullptr, presets_file,
                      simulation);

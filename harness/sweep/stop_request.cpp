@@ -4,13 +4,18 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
+#include <cstdio>
 
 namespace clothbench::harness {
 namespace {
 
-// The one piece of process-wide state: a signal handler can reach nothing else.
+// The process-wide state a signal handler can reach: the signal, and the line it writes
+// (set before the handler is installed, only read by it).
 volatile std::sig_atomic_t received_signal = 0;
+char stop_message[256] = {};
+int stop_message_length = 0;
 
 extern "C" void on_stop_signal(int number) {
   if (received_signal != 0) {  // the second one: the default action, at once
@@ -22,16 +27,20 @@ extern "C" void on_stop_signal(int number) {
     return;
   }
   received_signal = number;
-  static const char message[] =
-      "\nclothbench sweep: stopping after the current run (Ctrl-C again aborts at once)\n";
-  const ssize_t written = write(STDERR_FILENO, message, sizeof message - 1);
+  const ssize_t written =
+      write(STDERR_FILENO, stop_message, static_cast<size_t>(stop_message_length));
   (void)written;
 }
 
 }  // namespace
 
-StopRequest::StopRequest() {
+StopRequest::StopRequest(const char* command, const char* unit) {
   received_signal = 0;
+  const int length =
+      std::snprintf(stop_message, sizeof stop_message,
+                    "\n%s: stopping after %s (Ctrl-C again aborts at once)\n", command, unit);
+  stop_message_length =
+      length < 0 ? 0 : std::min(length, static_cast<int>(sizeof stop_message) - 1);
   struct sigaction action {};
   action.sa_handler = on_stop_signal;
   sigemptyset(&action.sa_mask);

@@ -125,7 +125,7 @@ int run_sweep(const SweepOptions& options) {
   // Everything that can be wrong with the input is checked before the first run.
   Scene scene = load_scene(options.scene_file, default_presets_file());
   if (options.steps) scene.steps = *options.steps;
-  check_memory(scene.simulation, scene.file);
+  check_memory(scene);
   if (options.schedulers.empty()) throw std::invalid_argument("--schedulers: no scheduler given");
   if (options.repeat < 1) throw std::invalid_argument("--repeat: must be at least 1");
   std::vector<GridScheduler> grid;

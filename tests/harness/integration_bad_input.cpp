@@ -1,7 +1,9 @@
 // The real `clothbench` binary given bad input: every classic scene-file mistake makes `check`
 // and `run` exit with code 2 and print FILE:LINE:COLUMN: [section] key and what is wrong; an
-// unknown preset lists the valid ones; more threads than the hardware has are refused unless
-// --oversubscribe is given, and then the run says it is oversubscribed in every output.
+// unknown preset lists the valid ones; a grid too large for this machine's memory is refused
+// at its [cloth] particles (and `check` prints the estimate of a scene that fits); more threads
+// than the hardware has are refused unless --oversubscribe is given, and then the run says it
+// is oversubscribed in every output.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -96,6 +98,36 @@ TEST_F(BadInputBinary, UnknownShippedPresetListsTheShippedOnes) {
                                    "\"coton-shirting\" (did you mean 'cotton-shirting'?"));
   EXPECT_THAT(o.output, HasSubstr(": cotton-shirting, denim, polyester, silk, wool-suiting)"));
   fs::remove(file);
+}
+
+TEST_F(BadInputBinary, MemoryRefusalNamesTheLineAndColumnOfParticles) {
+  const fs::path file = fresh_dir("huge").string() + ".toml";
+  // 10^12 particles: hundreds of terabytes; nothing in loading allocates by the grid.
+  std::ofstream(file) << "[scene]\nname = \"too large\"\n\n[cloth]\nsize_m = [1.0, 1.0]\n"
+                         "particles   =   [1000000, 1000000]\n";
+  const std::string expected = "clothbench: " + file.string() +
+                               ":6:17: [cloth] particles: 1000000 x 1000000 particles need about ";
+  const fs::path out = fresh_dir("huge-out");
+  for (const std::string& command :
+       {"check " + quote(file.string()),
+        "run " + quote(file.string()) + " --quiet --no-vtk --out " + quote(out.string()),
+        "sweep " + quote(file.string()) + " --quiet --no-plots --out " + quote(out.string())}) {
+    const Outcome o = run(command);
+    EXPECT_EQ(o.exit_code, 2) << command << ": " << o.output;
+    EXPECT_THAT(o.output, StartsWith(expected)) << command;
+    EXPECT_THAT(o.output, HasSubstr(" GiB, but this machine has ")) << command;
+    EXPECT_THAT(o.output, testing::Not(HasSubstr(": OK"))) << command;
+    EXPECT_FALSE(fs::exists(out)) << command << ": nothing is written for bad input";
+  }
+  fs::remove(file);
+}
+
+TEST_F(BadInputBinary, CheckPrintsTheMemoryEstimate) {
+  const Outcome o = run("check " + quote(kTiny.string()));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, testing::ContainsRegex(R"(
+  memory      about [0-9]+\.[0-9] MiB \(estimate; this machine has [0-9]+\.[0-9] GiB\)
+)"));
 }
 
 TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {

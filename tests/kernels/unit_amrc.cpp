@@ -483,5 +483,65 @@ TEST(Amrc, NewParticlesStartOnTheInterpolatedSurface) {
   }
 }
 
+TEST(Amrc, NewParticlesInsideAnObstacleMoveOutToTheContactLayer) {
+  // A coarse sheet lying on a sphere (its particles at the contact distance d): refining it
+  // puts new particles on the coarse bilinear surface, whose chords cut into the sphere.
+  kernels::SimulationConfig c = adaptive_cloth(2, 2, 2);  // 9 x 9, spacing 2.5 cm
+  c.cloth.initial_crumple = 0.0;
+  kernels::ObstacleConfig sphere;
+  sphere.kind = kernels::ObstacleKind::sphere;
+  sphere.center = {0.1, 0.1, -0.2};
+  sphere.radius = 0.16;
+  c.obstacles.push_back(sphere);
+  c.cloth.origin = {0.0, 0.0, 0.0};
+  kernels::Simulation sim(c);
+  const double d = c.contact.distance;
+  AdaptiveMesh& tree = sim.begin_tree_edit();
+  for (int k = 1; k <= 2; ++k) {
+    for (int a = 0; a < (4 >> (k - 1)); ++a) {
+      for (int b = 0; b < (4 >> (k - 1)); ++b) tree.coarsen(TreeCell{k, a, b}, sim.mesh());
+    }
+  }
+  sim.end_tree_edit();
+  const kernels::Obstacle ball(sphere);
+  kernels::ClothState& st = sim.state();
+  for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
+    if (!(sim.mesh().flags[s] & kernels::kParticleActive)) continue;
+    Eigen::Vector3d x = kernels::vec3(st.position, s);
+    const Eigen::Vector2d r(x.x() - 0.1, x.y() - 0.1);
+    x.z() = sphere.center.z() + std::sqrt(sphere.radius * sphere.radius - r.squaredNorm()) + d;
+    const Eigen::Vector3d velocity_step(0.001, 0.0, -0.002);
+    kernels::vec3(st.position, s) = x;
+    kernels::vec3(st.step_start, s) = x;
+    kernels::vec3(st.target, s) = x + velocity_step;
+  }
+  const std::vector<double> coarse_surface = sim.surface_positions();
+  AdaptiveMesh& refine = sim.begin_tree_edit();
+  for (int a = 0; a < 2; ++a) {
+    for (int b = 0; b < 2; ++b) refine.refine(TreeCell{2, a, b});
+  }
+  for (int a = 0; a < 4; ++a) {
+    for (int b = 0; b < 4; ++b) refine.refine(TreeCell{1, a, b});
+  }
+  sim.end_tree_edit();
+  EXPECT_EQ(check_invariants(sim, "after refining over the sphere"), 0);
+  int lifted = 0;
+  for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
+    ASSERT_TRUE(sim.mesh().flags[s] & kernels::kParticleActive) << "the finest mesh again";
+    const Eigen::Vector3d x = kernels::vec3(st.position, s);
+    const Eigen::Vector3d old = kernels::vec3(coarse_surface, s);
+    if (ball.signed_distance(old) >= 0.0) {
+      EXPECT_EQ(x, old) << "a particle outside the sphere stays on the old surface";
+      continue;
+    }
+    ++lifted;
+    EXPECT_NEAR(ball.signed_distance(x), d, 1e-12) << where(sim.mesh(), s);
+    const Eigen::Vector3d carried = kernels::vec3(st.target, s) - kernels::vec3(st.step_start, s);
+    EXPECT_LT((carried - Eigen::Vector3d(0.001, 0.0, -0.002)).norm(), 1e-15) << "velocity kept";
+    EXPECT_EQ(kernels::vec3(st.step_start, s), x) << "x^n moves with x";
+  }
+  EXPECT_GT(lifted, 0) << "the coarse surface must cut into the sphere for this test to mean anything";
+}
+
 }  // namespace
 }  // namespace clothbench

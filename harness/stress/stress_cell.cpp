@@ -1,0 +1,160 @@
+// Running and judging one stress cell (see stress_cell.hpp).
+#include "harness/stress/stress_cell.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "harness/run/run_summary.hpp"
+#include "kernels/simulation.hpp"
+
+namespace clothbench::harness {
+namespace {
+
+/// Kinetic energy of the active particles after a step (J): the step's displacement is
+/// (x~ - x^n) / (1 - c_damp), the velocity that over dt.
+double kinetic_energy(const kernels::Simulation& simulation) {
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const kernels::ClothState& st = simulation.state();
+  const kernels::TimeConfig& time = simulation.config().time;
+  const double scale = 1.0 / ((1.0 - time.damping) * time.step);
+  double energy = 0.0;
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (!(mesh.flags[s] & kernels::kParticleActive)) continue;
+    const Eigen::Vector3d v =
+        scale * (kernels::vec3(st.target, s) - kernels::vec3(st.step_start, s));
+    energy += 0.5 * mesh.mass[s] * v.squaredNorm();
+  }
+  return energy;
+}
+
+/// Smallest strain of the active edges (-1 for an edge of zero length).
+double min_edge_strain(const kernels::Simulation& simulation) {
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const std::vector<double>& x = simulation.state().position;
+  double smallest = 0.0;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.edge_active[id]) continue;
+    const double length =
+        (kernels::vec3(x, mesh.next[id]) - kernels::vec3(x, kernels::element_slot(id))).norm();
+    smallest = std::min(smallest, length / mesh.edge_rest[id] - 1.0);
+  }
+  return smallest;
+}
+
+}  // namespace
+
+void judge_stress_cell(StressCellResult& r) {
+  r.failures.clear();
+  if (r.non_finite) {
+    r.failures.push_back(
+        fmt::format("step {}: non-finite value: {}", r.non_finite->step, r.non_finite->text));
+  }
+  if (!(r.mass_drift <= kMassTolerance)) {
+    r.failures.push_back(
+        fmt::format("mass drift {:.3g} above {:.0e} (relative)", r.mass_drift, kMassTolerance));
+  }
+  if (!(r.max_particle_penetration < r.contact_distance)) {
+    r.failures.push_back(
+        fmt::format("a particle went {:.3g} m into an obstacle (contact distance {:g} m)",
+                    r.max_particle_penetration, r.contact_distance));
+  }
+  if (!(r.max_surface_penetration < r.contact_distance)) {
+    r.failures.push_back(
+        fmt::format("the interpolated surface went {:.3g} m into an obstacle (contact distance "
+                    "{:g} m)",
+                    r.max_surface_penetration, r.contact_distance));
+  }
+  if (r.max_ghost_offset > 0.0) {
+    r.failures.push_back(
+        fmt::format("crack: a ghost left its coarse edge by {:.3g} m", r.max_ghost_offset));
+  }
+  if (r.cost_trend.growing) {
+    r.failures.push_back(fmt::format(
+        "the step cost grows without bound: last-quarter mean {:.3g} vs first-quarter mean {:.3g}",
+        r.cost_trend.quarter_mean[3], r.cost_trend.quarter_mean[0]));
+  }
+  // Growth implies leaving the bound (its floor is the bound); the bound alone also catches a
+  // cost that stays far above it without growing.
+  if (!r.cost_trend.growing && r.cost_trend.assessed &&
+      !(r.cost_trend.quarter_mean[3] <= r.cost_bound)) {
+    r.failures.push_back(fmt::format(
+        "the step cost left its bound: last-quarter mean {:.3g} (RMS residual {:.3g} weights) "
+        "above the step-rejection level {:.3g}: those steps were accepted only because their "
+        "halvings ran out",
+        r.cost_trend.quarter_mean[3], std::sqrt(r.cost_trend.quarter_mean[3]), r.cost_bound));
+  }
+  r.passed = r.failures.empty();
+}
+
+std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
+                                                schedulers::LoopDriver& driver,
+                                                const std::function<bool()>& keep_going) {
+  const auto start = std::chrono::steady_clock::now();
+  const kernels::SimulationConfig& config = cell.scene.simulation;
+  StressCellResult r;
+  r.name = cell.name;
+  r.axis = cell.axis;
+  r.change = cell.change;
+  r.particles_i = config.cloth.particles_i;
+  r.particles_j = config.cloth.particles_j;
+  r.time_step = config.time.step;
+  r.contact_distance = config.contact.distance;
+  r.steps_planned = cell.scene.steps;
+
+  kernels::Simulation simulation(config);
+  const double expected_mass =
+      simulation.mesh().areal_density() * config.cloth.size_i * config.cloth.size_j;
+  std::vector<double> cost, work, energy;
+  bool abandoned = false;
+  const StepObserver observe = [&](const kernels::Simulation& sim, const StepRecord& step) {
+    const kernels::StateDiagnostics d = sim.diagnostics();
+    r.max_strain = std::max(r.max_strain, d.max_strain);
+    r.min_strain = std::min(r.min_strain, min_edge_strain(sim));
+    r.max_particle_penetration = std::max(r.max_particle_penetration, -d.min_particle_distance);
+    r.max_surface_penetration = std::max(r.max_surface_penetration, d.max_surface_penetration);
+    r.max_ghost_offset = std::max(r.max_ghost_offset, d.max_ghost_offset);
+    r.mass_drift = std::max(r.mass_drift, std::abs(d.total_mass - expected_mass) / expected_mass);
+    cost.push_back(step.residual_rms * step.residual_rms);
+    work.push_back(step.iterations);
+    energy.push_back(kinetic_energy(sim));
+    r.max_kinetic_energy = std::max(r.max_kinetic_energy, energy.back());
+    r.max_step_iterations = std::max(r.max_step_iterations, step.iterations);
+    if (step.stop != "converged") ++r.unconverged_steps;
+    if (!keep_going()) {
+      abandoned = true;
+      return false;
+    }
+    return true;
+  };
+  const RunSummary summary = simulate(simulation, driver, cell.scene.steps, true, observe);
+  if (abandoned) return std::nullopt;
+
+  r.steps_completed = static_cast<int>(summary.steps.size());
+  if (!summary.non_finite.empty()) {
+    r.non_finite = parse_non_finite(summary.non_finite_step, summary.non_finite);
+  }
+  // An accepted step's RMS residual stays below reject_residual unless its halvings ran out:
+  // below that level the cost is bounded by the kernel's step rejection.
+  r.cost_bound = config.solver.reject_residual * config.solver.reject_residual;
+  r.cost_trend = trend_of(cost, r.cost_bound);
+  r.work_trend = trend_of(work, 0.0);
+  r.kinetic_energy_trend = trend_of(energy, 0.0);
+  r.cg_iterations = summary.total_iterations;
+  r.evaluations = summary.total_evaluations;
+  r.rejected_steps = summary.rejected_steps;
+  r.amrc_checks = static_cast<int>(summary.amrc_events.size());
+  for (const kernels::AmrcEvent& e : summary.amrc_events) {
+    r.amrc_refined += e.refined;
+    r.amrc_coarsened += e.coarsened;
+  }
+  r.step_seconds = summary.wall_seconds;
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  judge_stress_cell(r);
+  return r;
+}
+
+}  // namespace clothbench::harness
