@@ -103,7 +103,7 @@ SurfaceSample sample_surface(const kernels::Simulation& simulation) {
 
 VariantRun run_variant(const Scene& scene, const std::string& label, const std::string& setting,
                        schedulers::LoopDriver& driver, int threads, bool quiet) {
-  check_memory(scene.simulation, scene.file);
+  check_memory(scene);
   omp_set_num_threads(threads);
   const auto simulation = std::make_unique<kernels::Simulation>(scene.simulation);
   VariantRun run;
