@@ -133,12 +133,16 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
   EXPECT_LT(base->at("error_rms_m").get<double>(), coarse->at("error_rms_m").get<double>());
   ASSERT_NE(find_run(runs, "time-budget-50%"), nullptr);
   ASSERT_NE(find_run(runs, "numeric-gradient"), nullptr);
+  const json* uncapped = find_run(runs, "cg-cap-x10");  // the reference's cap, scene tolerance
+  ASSERT_NE(uncapped, nullptr);
+  EXPECT_LE(uncapped->at("rejected_steps").get<std::int64_t>(),
+            base->at("rejected_steps").get<std::int64_t>());
   if (std::system("gnuplot --version > /dev/null 2>&1") == 0) {
     EXPECT_TRUE(fs::exists(dir / "time_error.png"));
     EXPECT_NE(read_text(dir / "time_error.gp").find("title 'Pareto front'"), std::string::npos);
   }
   const std::string md = read_text(dir / "time_error.md");
-  EXPECT_NE(md.find("| Pareto |"), std::string::npos);
+  EXPECT_NE(md.find("| Rejected steps | Pareto |"), std::string::npos);
   EXPECT_NE(md.find("| * |"), std::string::npos);
 }
 
