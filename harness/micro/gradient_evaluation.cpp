@@ -11,6 +11,7 @@
 #include <memory>
 #include <vector>
 
+#include "harness/micro/box_scene.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/static_driver.hpp"
 
@@ -23,18 +24,8 @@ using clothbench::kernels::SimulationConfig;
 /// The paper's box scene at n x n particles, draped for a few steps so elements are in every
 /// regime of their bands (a flat cloth would take the cheap branches only).
 std::unique_ptr<Simulation> draped_box(int n, Formulation formulation) {
-  SimulationConfig c;
-  c.cloth.particles_i = c.cloth.particles_j = n;
-  c.cloth.size_i = c.cloth.size_j = 1.0;
-  c.cloth.origin = {-0.5, -0.5, 0.252};
-  c.cloth.initial_crumple = 0.002;
-  clothbench::kernels::ObstacleConfig box;
-  box.kind = clothbench::kernels::ObstacleKind::box;
-  box.center = {0, 0, 0.125};
-  box.half_extents = {0.25, 0.25, 0.125};
-  c.obstacles.push_back(box);
+  SimulationConfig c = clothbench::micro::box_scene(n);
   c.solver.formulation = formulation;
-  c.solver.max_iterations = 5;
   auto sim = std::make_unique<Simulation>(c);
   clothbench::schedulers::OmpStaticDriver driver;
   for (int k = 0; k < 3; ++k) sim->step(driver);

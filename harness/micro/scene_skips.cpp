@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/micro/box_scene.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/registry.hpp"
@@ -54,21 +55,7 @@ double median(std::vector<double> values) {
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-/// The paper's box scene at n x n particles over a 1 m sheet, just above the box's top.
-SimulationConfig box_scene(int n) {
-  SimulationConfig c;
-  c.cloth.particles_i = c.cloth.particles_j = n;
-  c.cloth.size_i = c.cloth.size_j = 1.0;
-  c.cloth.origin = {-0.5, -0.5, 0.252};
-  c.cloth.initial_crumple = 0.002;
-  clothbench::kernels::ObstacleConfig box;
-  box.kind = clothbench::kernels::ObstacleKind::box;
-  box.center = {0, 0, 0.125};
-  box.half_extents = {0.25, 0.25, 0.125};
-  c.obstacles.push_back(box);
-  c.solver.max_iterations = 5;
-  return c;
-}
+using clothbench::micro::box_scene;
 
 /// Mean CPU seconds of one evaluation of `sim` (after one refreshing evaluation), timed over
 /// `evaluations` calls.
