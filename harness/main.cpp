@@ -89,8 +89,10 @@ int main(int argc, char** argv) {
                               ->check(CLI::IsMember({"analytic", "numeric"}));
   auto* preconditioner_option =
       run_command
-          ->add_option("--preconditioner", preconditioner, "Override block-Jacobi preconditioning")
-          ->check(CLI::IsMember({"on", "off"}));
+          ->add_option("--preconditioner", preconditioner,
+                       "Override the preconditioner: off, on (= block-jacobi), block-jacobi or "
+                       "lines (block-tridiagonal solves along the grid lines)")
+          ->check(CLI::IsMember({"on", "off", "block-jacobi", "lines"}));
   run_command->add_option("--out", run.output_dir, "Output directory for VTK and JSON")
       ->capture_default_str();
   bool no_vtk = false;
@@ -211,7 +213,9 @@ int main(int argc, char** argv) {
       if (*steps_option) run.steps = steps;
       if (*formulation_option) run.formulation = formulation;
       if (*gradient_option) run.gradient = gradient;
-      if (*preconditioner_option) run.preconditioner = preconditioner == "on";
+      if (*preconditioner_option) {
+        run.preconditioner = preconditioner == "on" ? std::string("block-jacobi") : preconditioner;
+      }
       run.write_vtk = !no_vtk;
       return clothbench::harness::run_scene(run);
     }

@@ -123,6 +123,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
   MinimiserReport report;
   objective.begin_step(run);
   Evaluation current = objective.evaluate(run);
+  objective.precondition(run, current);
   report.evaluations = 1;
   report.initial = current;
   if (settings.record_values) report.values.push_back(current.value);
@@ -145,6 +146,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
     if (settings.refresh_every > 0 && report.iterations > 0 &&
         report.iterations % settings.refresh_every == 0) {
       objective.refresh_preconditioner(run);
+      objective.precondition(run, current);
       restart = true;  // the metric changed: old directions are no longer conjugate
     }
     const double beta =
@@ -174,6 +176,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
       // Back to the base point; its gradient must be recomputed (trials overwrote it).
       objective.move(run, -ls.end_alpha);
       current = objective.evaluate(run);
+      objective.precondition(run, current);
       ++report.evaluations;
       if (restart) {
         report.reason = StopReason::line_search_stalled;
@@ -187,6 +190,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
     previous_alpha = ls.alpha;
     previous_slope = slope;
     current = ls.at;
+    objective.precondition(run, current);
     if (settings.record_values) report.values.push_back(current.value);
     restart = false;
     ++report.iterations;

@@ -144,6 +144,16 @@ class LoopRunner {
                           });
   }
 
+  /// Calls body(k) for every k in [0, n): work over something other than mesh elements (the
+  /// line-solve preconditioner's grid lines). Not timed; ends with the driver's barrier.
+  template <class Body>
+  void for_index(std::int64_t n, Body&& body) {
+    auto range = [&](std::int64_t b, std::int64_t e) {
+      for (std::int64_t k = b; k < e; ++k) body(k);
+    };
+    driver_.for_range(n, range);
+  }
+
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
   /// Over the Active-Lists, tiles without an entry of the loop's kind are skipped: nothing
   /// wrote their partial (it may hold a value from before an AMRC event). Over blocks every

@@ -16,7 +16,13 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
       edge_partials_(ctx.mesh.tile_count()),
       triple_partials_(ctx.mesh.tile_count()),
       scalar_partials_(ctx.mesh.tile_count()),
-      gather_partials_(ctx.mesh.tile_count()) {}
+      gather_partials_(ctx.mesh.tile_count()),
+      precondition_partials_(ctx.mesh.tile_count()) {
+  if (ctx.config.solver.line_solves && ctx.config.solver.preconditioner) {
+    lines_ = std::make_unique<LinePreconditioner>(ctx.mesh);
+    line_z_.assign(3 * static_cast<std::size_t>(ctx.mesh.slot_count()), 0.0);
+  }
+}
 
 void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
@@ -33,21 +39,25 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   refresh_preconditioner(run);
 }
 
+Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id) const {
+  const ClothMesh& mesh = ctx_.mesh;
+  const ClothState& st = ctx_.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  const EdgeTerm e = edge_term(ctx_, id, x);
+  if (e.length <= 0.0) return Eigen::Matrix3d::Zero();
+  const Eigen::Vector3d u = (x(mesh.next[id]) - x(element_slot(id))) / e.length;
+  const double w = mesh.edge_width[id];
+  const Eigen::Matrix3d uu = u * u.transpose();
+  return w * (e.slope / mesh.edge_rest[id]) * uu +
+         w * std::max(e.force, 0.0) / e.length * (Eigen::Matrix3d::Identity() - uu);
+}
+
 Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask mask) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   const double dt = ctx_.config.time.step;
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity() * (mesh.mass[s] / (dt * dt));
-  auto add_edge = [&](std::int64_t id) {
-    const EdgeTerm e = edge_term(ctx_, id, x);
-    if (e.length <= 0.0) return;
-    const Eigen::Vector3d u = (x(mesh.next[id]) - x(element_slot(id))) / e.length;
-    const double w = mesh.edge_width[id];
-    const Eigen::Matrix3d uu = u * u.transpose();
-    h += w * (e.slope / mesh.edge_rest[id]) * uu +
-         w * std::max(e.force, 0.0) / e.length * (Eigen::Matrix3d::Identity() - uu);
-  };
   auto add_triple = [&](std::int64_t id, int role) {  // role 0 = a, 1 = c, 2 = b
     const TripleTerm t = triple_term(ctx_, id, x);
     if (t.angle.degenerate || t.slope <= 0.0) return;
@@ -61,9 +71,9 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
   for (int d = 0; d < 2; ++d) {
     const std::int64_t id = element_id(s, d);
     const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-    if (mesh.edge_active[id]) add_edge(id);
+    if (mesh.edge_active[id]) h += edge_tangent(id);
     if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
-      add_edge(element_id(p, d));
+      h += edge_tangent(element_id(p, d));
     }
     if (mesh.triple_active[id]) add_triple(id, 1);
     if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
@@ -83,6 +93,7 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
   // Without block Jacobi the unknowns are positions in units of the finest spacing h:
   // P^-1 = h^2 I (MODEL.md 5, scaled unknowns).
   const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
+  LinePreconditioner* lines = lines_.get();
   run.for_each_prepared(
       ElementKind::particles,
       [&](std::int64_t tile) {
@@ -92,11 +103,36 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
       [&](std::int64_t s, ObstacleMask mask) {
         Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
         if (ctx_.is_free(s)) {
-          inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s, mask).inverse())
-                                 : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
+          if (lines != nullptr) {
+            const Eigen::Matrix3d block = diagonal_block(s, mask);
+            inverse = block.inverse();
+            store_symmetric(lines->diagonal_block, s, block);
+          } else {
+            inverse = block_jacobi ? Eigen::Matrix3d(diagonal_block(s, mask).inverse())
+                                   : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h));
+          }
         }
         store_symmetric(st.preconditioner, s, inverse);
       });
+  if (lines == nullptr) return;
+  run.for_each(ElementKind::edges,
+               [&](std::int64_t id) { store_symmetric(lines->edge_block, id, edge_tangent(id)); });
+  lines->factor(run, ctx_);
+}
+
+void PotentialObjective::precondition(LoopRunner& run, Evaluation& e) {
+  if (lines_ == nullptr) return;
+  ClothState& st = ctx_.state;
+  lines_->apply(run, ctx_, st.gradient, line_z_);
+  run.for_each<GatherSums>(ElementKind::particles, &precondition_partials_,
+                           [&](std::int64_t s, GatherSums& acc) {
+                             const Eigen::Vector3d z = vec3(line_z_, s);
+                             acc.grad_dot_z += vec3(st.gradient, s).dot(z);
+                             acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
+                           });
+  const GatherSums p = run.reduce(precondition_partials_);
+  e.grad_dot_z = p.grad_dot_z;
+  e.grad_old_dot_z = p.grad_old_dot_z;
 }
 
 double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs) const {
@@ -258,7 +294,8 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
 
 double PotentialObjective::update_direction(LoopRunner& run, double beta) {
   ClothState& st = ctx_.state;
-  update_position_direction(run, st, beta, scalar_partials_);
+  update_position_direction(run, st, beta, scalar_partials_,
+                            lines_ != nullptr ? &line_z_ : nullptr);
   return run.reduce(scalar_partials_).value;
 }
 

@@ -5,8 +5,10 @@
 // changes resolvable).
 #pragma once
 
+#include <memory>
 #include <vector>
 
+#include "kernels/line_preconditioner.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/step_objective.hpp"
 
@@ -17,11 +19,15 @@ class PotentialObjective final : public StepObjective {
   explicit PotentialObjective(const StepContext& ctx);
   void begin_step(LoopRunner& run) override;
   void refresh_preconditioner(LoopRunner& run) override;
+  void precondition(LoopRunner& run, Evaluation& e) override;
   Evaluation evaluate(LoopRunner& run) override;
   double update_direction(LoopRunner& run, double beta) override;
   void move(LoopRunner& run, double alpha) override;
   void end_step(LoopRunner& run) override;
   void prepare_history(LoopRunner& run) override;
+  [[nodiscard]] std::size_t memory_bytes() const override {
+    return lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double);
+  }
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
@@ -31,12 +37,23 @@ class PotentialObjective final : public StepObjective {
   /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact with the
   /// obstacles in `mask`).
   Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
+  /// Tangent K_e of edge id (material slope along the edge, tension across it).
+  Eigen::Matrix3d edge_tangent(std::int64_t id) const;
+
+ public:
+  /// The line-solve preconditioner, or null when the scene uses block Jacobi (tests).
+  [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
+
+ private:
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;
   TilePartials<ScalarSum> triple_partials_;
   TilePartials<ScalarSum> scalar_partials_;
   TilePartials<GatherSums> gather_partials_;
+  TilePartials<GatherSums> precondition_partials_;
+  std::unique_ptr<LinePreconditioner> lines_;
+  std::vector<double> line_z_;  ///< 3 per slot: P^-1 g at the current point (line solves)
 };
 
 }  // namespace clothbench::kernels

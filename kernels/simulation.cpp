@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
+#include "kernels/line_preconditioner.hpp"
 #include "kernels/potential_objective.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/violation_objective.hpp"
@@ -32,6 +34,12 @@ Simulation::Simulation(const SimulationConfig& config)
           "(ghost particles); use the analytic gradient or the potential formulation");
     }
     amrc_ = std::make_unique<AdaptiveMesh>(mesh_, config_.amrc.levels);
+  }
+  if (config_.solver.line_solves && (config_.solver.formulation == Formulation::violation ||
+                                     !config_.solver.preconditioner)) {
+    throw std::invalid_argument(
+        "the line-solve preconditioner needs the potential formulation with preconditioning on "
+        "(formulation = \"potential\", preconditioner = true)");
   }
   const StepContext ctx{mesh_, material_, obstacles_, config_, state_};
   if (config_.solver.formulation == Formulation::violation) {
@@ -372,7 +380,7 @@ std::vector<double> Simulation::contact_forces() const {
 }
 
 std::size_t Simulation::memory_bytes() const {
-  std::size_t b = state_.memory_bytes() + lists_.memory_bytes();
+  std::size_t b = state_.memory_bytes() + lists_.memory_bytes() + objective_->memory_bytes();
   if (amrc_) b += amrc_->memory_bytes();
   b += mesh_.slot_of_grid.capacity() * 4 + mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
   b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
@@ -391,7 +399,8 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   // AMRC tree 2 B.
   const std::size_t per_slot =
       7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
-  return n * per_slot + (16u << 20);
+  const std::size_t lines = config.solver.line_solves ? n * LinePreconditioner::kBytesPerSlot : 0;
+  return n * per_slot + lines + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

@@ -83,6 +83,9 @@ struct SolverConfig {
   Formulation formulation = Formulation::potential;
   GradientMode gradient = GradientMode::analytic;
   bool preconditioner = true;  ///< per-particle 3x3 block Jacobi
+  /// Precondition with exact block-tridiagonal solves along the grid lines of both directions
+  /// instead of block Jacobi (potential formulation only; kernels/line_preconditioner.hpp).
+  bool line_solves = false;
   /// Stop when the RMS normalised residual sqrt(En / particles) is below this.
   double tolerance = 1.0e-3;
   int max_iterations = 200;

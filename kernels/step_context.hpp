@@ -118,15 +118,17 @@ inline Eigen::Vector3d initial_guess(const StepContext& ctx, std::int64_t s, dou
   return x;
 }
 
-/// Stores the inverse of a symmetric 3x3 block as 6 floats (xx xy xz yy yz zz).
-inline void store_symmetric(std::vector<float>& out, std::int64_t s, const Eigen::Matrix3d& m) {
-  float* p = out.data() + 6 * s;
-  p[0] = static_cast<float>(m(0, 0));
-  p[1] = static_cast<float>(m(0, 1));
-  p[2] = static_cast<float>(m(0, 2));
-  p[3] = static_cast<float>(m(1, 1));
-  p[4] = static_cast<float>(m(1, 2));
-  p[5] = static_cast<float>(m(2, 2));
+/// Stores a symmetric 3x3 block (e.g. a preconditioner's inverse) as 6 values
+/// (xx xy xz yy yz zz), in float or double.
+template <class T>
+inline void store_symmetric(std::vector<T>& out, std::int64_t s, const Eigen::Matrix3d& m) {
+  T* p = out.data() + 6 * s;
+  p[0] = static_cast<T>(m(0, 0));
+  p[1] = static_cast<T>(m(0, 1));
+  p[2] = static_cast<T>(m(0, 2));
+  p[3] = static_cast<T>(m(1, 1));
+  p[4] = static_cast<T>(m(1, 2));
+  p[5] = static_cast<T>(m(2, 2));
 }
 /// z = P^-1 g with the stored symmetric block of slot s.
 inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_t s,
@@ -155,13 +157,16 @@ struct ScalarSum {
 
 /// The position part of a CG direction update, shared by both formulations:
 /// direction = -P^-1 g + beta direction and gradient_old = g for every particle; the per-tile
-/// sums of direction . g go to `partials`.
+/// sums of direction . g go to `partials`. P^-1 g is the block-Jacobi product, or `z` when
+/// the caller has computed it (the line-solve preconditioner).
 inline void update_position_direction(LoopRunner& run, ClothState& st, double beta,
-                                      TilePartials<ScalarSum>& partials) {
+                                      TilePartials<ScalarSum>& partials,
+                                      const std::vector<double>* z = nullptr) {
   run.for_each<ScalarSum>(ElementKind::particles, &partials, [&](std::int64_t s, ScalarSum& acc) {
     const Eigen::Vector3d g = vec3(st.gradient, s);
     auto dir = vec3(st.direction, s);
-    dir = -apply_symmetric(st.preconditioner, s, g) + beta * dir;
+    dir = -(z != nullptr ? Eigen::Vector3d(vec3(*z, s)) : apply_symmetric(st.preconditioner, s, g)) +
+          beta * dir;
     vec3(st.gradient_old, s) = g;
     acc.value += dir.dot(g);
   });

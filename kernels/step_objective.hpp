@@ -70,6 +70,11 @@ class StepObjective {
   virtual void begin_step(LoopRunner& run) = 0;
   /// Rebuilds the preconditioner at the current unknowns.
   virtual void refresh_preconditioner(LoopRunner& run) = 0;
+  /// For preconditioners that are not per particle (line solves): computes P^-1 g at the
+  /// current point, whose gradient `e` was evaluated there, and replaces e's g . P^-1 g and
+  /// g_old . P^-1 g. The minimiser calls it on every point it moves from and after every
+  /// refresh. Block Jacobi computes both inside `evaluate`: nothing to do.
+  virtual void precondition(LoopRunner& /*run*/, Evaluation& /*e*/) {}
   /// Value, gradient (stored) and the CG scalars at the current unknowns.
   virtual Evaluation evaluate(LoopRunner& run) = 0;
   /// direction = -P^-1 g + beta direction; gradient_old = g. Returns the new direction . g.
@@ -81,6 +86,9 @@ class StepObjective {
   virtual void prepare_history(LoopRunner& run) = 0;
   /// Stores the step's forces (the hysteresis state) and advances the position history.
   virtual void end_step(LoopRunner& run) = 0;
+
+  /// Bytes the objective holds beyond ClothState (the line-solve preconditioner's arrays).
+  [[nodiscard]] virtual std::size_t memory_bytes() const { return 0; }
 
   /// Contact work of every evaluation so far (written by thread 0 of each evaluation).
   [[nodiscard]] const ContactWork& contact_work() const { return contact_work_; }

@@ -39,7 +39,10 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
     solver.gradient = *options.gradient == "numeric" ? kernels::GradientMode::numeric
                                                      : kernels::GradientMode::analytic;
   }
-  if (options.preconditioner) solver.preconditioner = *options.preconditioner;
+  if (options.preconditioner) {
+    solver.preconditioner = *options.preconditioner != "off";
+    solver.line_solves = *options.preconditioner == "lines";
+  }
 }
 
 }  // namespace
@@ -115,7 +118,9 @@ int run_scene(const RunOptions& options) {
                                                                                    : "violation",
              scene.simulation.solver.gradient == kernels::GradientMode::analytic ? "analytic"
                                                                                  : "numeric",
-             scene.simulation.solver.preconditioner ? "block-jacobi" : "off");
+             !scene.simulation.solver.preconditioner ? "off"
+             : scene.simulation.solver.line_solves   ? "lines"
+                                                     : "block-jacobi");
   fmt::print("  scheduler {}, threads {}{}, steps {}\n", driver->name(), threads,
              oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
   if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());

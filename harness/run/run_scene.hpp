@@ -16,7 +16,7 @@ struct RunOptions {
   std::optional<int> steps;                ///< override the scene's step count
   std::optional<std::string> formulation;  ///< override: "potential" | "violation"
   std::optional<std::string> gradient;     ///< override: "analytic" | "numeric"
-  std::optional<bool> preconditioner;      ///< override
+  std::optional<std::string> preconditioner;  ///< override: off, block-jacobi, lines
   std::filesystem::path output_dir = "results/runs";  ///< where the VTK and JSON go
   bool write_vtk = true;
   bool quiet = false;  ///< no per-step lines

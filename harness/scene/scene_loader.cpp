@@ -196,7 +196,8 @@ void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
 }
 
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
-  reader.allow_only({"formulation", "gradient", "preconditioner", "tolerance", "max_iterations",
+  reader.allow_only({"formulation", "gradient", "preconditioner", "line_solves", "tolerance",
+                     "max_iterations",
                      "numeric_step", "weights", "stretch_reference_fm", "time_budget_s"});
   if (auto v = reader.choice("formulation", {"potential", "violation"})) {
     solver.formulation =
@@ -207,6 +208,15 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
         *v == "numeric" ? kernels::GradientMode::numeric : kernels::GradientMode::analytic;
   }
   if (auto v = reader.boolean("preconditioner")) solver.preconditioner = *v;
+  if (auto v = reader.boolean("line_solves")) solver.line_solves = *v;
+  if (solver.line_solves &&
+      (solver.formulation == kernels::Formulation::violation || !solver.preconditioner)) {
+    reader.fail_at(reader.where("line_solves"), "line_solves",
+                   "the line-solve preconditioner is implemented for the potential formulation "
+                   "with preconditioning on",
+                   "expected formulation = \"potential\" and preconditioner = true, or "
+                   "line_solves = false");
+  }
   if (auto v = reader.number("tolerance", NumberRange::positive())) solver.tolerance = *v;
   if (auto v = reader.integer("max_iterations", 1, std::numeric_limits<int>::max())) {
     solver.max_iterations = static_cast<int>(*v);

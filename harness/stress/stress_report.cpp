@@ -151,8 +151,12 @@ std::string stress_markdown(const json& document) {
     }
   }
   const json& summary = document["summary"];
+  // A report written before its first cell finished has nothing to pass or fail yet.
+  const bool none_finished = summary["finished"].get<int>() == 0;
   out << fmt::format("\nResult: {} ({} of {} cells passed{})\n",
-                     document["passed"].get<bool>() ? "PASSED" : "FAILED",
+                     none_finished                      ? "NONE FINISHED YET"
+                     : document["passed"].get<bool>() ? "PASSED"
+                                                      : "FAILED",
                      summary["passed"].get<int>(), summary["finished"].get<int>(),
                      summary["finished"] == summary["planned"]
                          ? ""

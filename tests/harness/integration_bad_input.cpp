@@ -130,6 +130,24 @@ TEST_F(BadInputBinary, CheckPrintsTheMemoryEstimate) {
 )"));
 }
 
+TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesOnlyWhereTheyExist) {
+  const fs::path out = fresh_dir("run-lines");
+  const std::string common =
+      "run " + quote(kTiny.string()) + " --steps 2 --no-vtk --out " + quote(out.string());
+  const Outcome lines = run(common + " --preconditioner lines");
+  ASSERT_EQ(lines.exit_code, 0) << lines.output;
+  EXPECT_THAT(lines.output, HasSubstr("preconditioner lines\n"));
+  EXPECT_THAT(lines.output, HasSubstr("\nVerification: PASSED"));
+
+  const Outcome refused = run(common + " --preconditioner lines --formulation violation");
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_THAT(refused.output, HasSubstr("the line-solve preconditioner needs the potential "
+                                        "formulation with preconditioning on"));
+  const Outcome unknown = run(common + " --preconditioner multigrid");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_THAT(unknown.output, HasSubstr("--preconditioner"));
+}
+
 TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {
   const int hardware = clothbench_test::hardware_threads();
   const std::string over = std::to_string(hardware + 1);

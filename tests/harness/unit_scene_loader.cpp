@@ -298,6 +298,24 @@ TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormula
   }
 }
 
+TEST(SceneLoader, LineSolvesReadAndAreRefusedWhereTheKernelHasNone) {
+  const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nline_solves = true\n";
+  EXPECT_TRUE(parse_scene(text, "lines.toml", kPresets).simulation.solver.line_solves);
+  EXPECT_FALSE(parse_scene("[cloth]\nparticles = [9, 9]\n", "lines.toml", kPresets)
+                   .simulation.solver.line_solves);
+  for (const std::string& other : {std::string("formulation = \"violation\"\n"),
+                                   std::string("preconditioner = false\n")}) {
+    try {
+      (void)parse_scene(text + other, "lines.toml", kPresets);
+      FAIL() << "the kernel refuses line solves with " << other;
+    } catch (const SceneError& error) {
+      EXPECT_THAT(error.what(),
+                  StartsWith("lines.toml:4:15: [solver] line_solves: the line-solve "
+                             "preconditioner is implemented for the potential formulation"));
+    }
+  }
+}
+
 TEST(SceneLoader, HashIsStableAndSensitive) {
   EXPECT_EQ(clothbench::harness::fnv1a64_hex(""), "cbf29ce484222325");   // FNV-1a offset basis
   EXPECT_EQ(clothbench::harness::fnv1a64_hex("a"), "af63dc4c8601ec8c");  // published test vector

@@ -315,6 +315,13 @@ TEST(StressReport, NoNanReachesTheRecordsAndTheTablesShowEveryCell) {
   EXPECT_THAT(md, HasSubstr("- dt-0.1: step 4: non-finite value"));
   EXPECT_THAT(md, testing::Not(HasSubstr("| nan")));  // a figure is "-" when not finite
 
+  // Written before the first cell finished: no verdict yet.
+  nlohmann::json started = sample_document({});
+  started["complete"] = false;
+  started["summary"]["planned"] = 3;
+  EXPECT_THAT(harness::stress_markdown(started),
+              HasSubstr("Result: NONE FINISHED YET (0 of 0 cells passed; 0 of 3 cells finished)"));
+
   const std::string csv = harness::stress_csv(d);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
   EXPECT_THAT(csv, HasSubstr("\"dt = 0.1 s, gravity x50\""));

@@ -23,6 +23,7 @@ struct Case {
   kernels::Formulation formulation;
   bool amrc;
   bool events = false;
+  bool line_solves = false;  ///< the line-solve preconditioner instead of block Jacobi
 };
 
 /// Events on every one of the four steps: a pull (on a particle AMRC may have coarsened away
@@ -71,6 +72,7 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
+  c.solver.line_solves = test_case.line_solves;
   if (test_case.amrc) {
     // 25 x 17 = 2^3 n + 1; a check after every step with close thresholds, so that cells are
     // split and merged (with ghosts) while the schedulers run over the changing lists.
@@ -154,13 +156,16 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, true},
                                            Case{kernels::Formulation::violation, true},
                                            Case{kernels::Formulation::potential, false, true},
-                                           Case{kernels::Formulation::violation, true, true}),
+                                           Case{kernels::Formulation::violation, true, true},
+                                           Case{kernels::Formulation::potential, false, false, true},
+                                           Case{kernels::Formulation::potential, true, true, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
                                                   : "violation";
                            if (info.param.amrc) name += "_amrc";
-                           return info.param.events ? name + "_events" : name;
+                           if (info.param.events) name += "_events";
+                           return info.param.line_solves ? name + "_lines" : name;
                          });
 
 }  // namespace
