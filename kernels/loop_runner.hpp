@@ -145,13 +145,15 @@ class LoopRunner {
   }
 
   /// Calls body(k) for every k in [0, n): work over something other than mesh elements (the
-  /// line-solve preconditioner's grid lines). Not timed; ends with the driver's barrier.
+  /// line-solve preconditioner's grid lines). Timed like the element loops (it is parallel
+  /// work, not sequential overhead); ends with the driver's barrier.
   template <class Body>
   void for_index(std::int64_t n, Body&& body) {
-    auto range = [&](std::int64_t b, std::int64_t e) {
-      for (std::int64_t k = b; k < e; ++k) body(k);
-    };
-    driver_.for_range(n, range);
+    timed_loop(n, [&](std::int64_t b, std::int64_t e, auto& timed_call) {
+      timed_call([&] {
+        for (std::int64_t k = b; k < e; ++k) body(k);
+      });
+    });
   }
 
   /// Sums tile partials in tile order with Acc::operator+=; every thread gets the same value.
@@ -197,6 +199,10 @@ class LoopRunner {
   }
   template <class Acc, class Prepare, class Body>
   void run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body);
+  /// driver_.for_range(n) with the loop timing: ranges(begin, end, timed_call) runs one
+  /// scheduler range and hands its work to timed_call(work), which times it and counts a chunk.
+  template <class Ranges>
+  void timed_loop(std::int64_t n, Ranges&& ranges);
 
   template <class Acc, class Prepare, class Body>
   void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Prepare& prepare,
@@ -224,6 +230,45 @@ class LoopRunner {
 
 template <class Acc, class Prepare, class Body>
 void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body) {
+  if (driver_.space() == schedulers::IterationSpace::blocks || lists_ == nullptr) {
+    timed_loop(mesh_.block_count(), [&](std::int64_t b0, std::int64_t b1, auto& timed_call) {
+      timed_call([&] {
+        for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {
+          run_tile_blocks(kind, t, partials, prepare, body);
+        }
+      });
+    });
+    return;
+  }
+  const ElementList& list = lists_->of(kind);
+  const std::int64_t n = list.size();
+  const std::vector<std::int64_t>& begin = list.tile_begin;
+  auto tile_containing = [&](std::int64_t q) {
+    return static_cast<std::int64_t>(std::upper_bound(begin.begin(), begin.end(), q) -
+                                     begin.begin()) - 1;
+  };
+  // A scheduler's range of list positions is widened/narrowed to whole tiles: every tile
+  // belongs to the range holding its first entry, so tile partials never depend on the split.
+  auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
+  timed_loop(n, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
+    const std::int64_t lo = snap(q0), hi = snap(q1);
+    if (lo >= hi) return;
+    timed_call([&] {
+      for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
+        if (begin[t + 1] == begin[t]) continue;
+        Acc acc{};
+        const auto context = prepare(t, acc);
+        for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) {
+          body(list.entries[q], acc, context);
+        }
+        if (partials != nullptr) partials[t] = acc;
+      }
+    });
+  });
+}
+
+template <class Ranges>
+void LoopRunner::timed_loop(std::int64_t n, Ranges&& ranges) {
   const int thread = omp_get_thread_num();
   const bool timed = instrumentation_ != Instrumentation::off && times_ != nullptr;
   const double entry = timed ? monotonic_seconds() : 0.0;
@@ -248,43 +293,8 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Bod
     ++chunks;
   };
 
-  if (driver_.space() == schedulers::IterationSpace::blocks || lists_ == nullptr) {
-    auto range = [&](std::int64_t b0, std::int64_t b1) {
-      timed_call([&] {
-        for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {
-          run_tile_blocks(kind, t, partials, prepare, body);
-        }
-      });
-    };
-    driver_.for_range(mesh_.block_count(), range);
-  } else {
-    const ElementList& list = lists_->of(kind);
-    const std::int64_t n = list.size();
-    const std::vector<std::int64_t>& begin = list.tile_begin;
-    auto tile_containing = [&](std::int64_t q) {
-      return static_cast<std::int64_t>(std::upper_bound(begin.begin(), begin.end(), q) -
-                                       begin.begin()) - 1;
-    };
-    // A scheduler's range of list positions is widened/narrowed to whole tiles: every tile
-    // belongs to the range holding its first entry, so tile partials never depend on the split.
-    auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
-    auto range = [&](std::int64_t q0, std::int64_t q1) {
-      const std::int64_t lo = snap(q0), hi = snap(q1);
-      if (lo >= hi) return;
-      timed_call([&] {
-        for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
-          if (begin[t + 1] == begin[t]) continue;
-          Acc acc{};
-          const auto context = prepare(t, acc);
-          for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) {
-            body(list.entries[q], acc, context);
-          }
-          if (partials != nullptr) partials[t] = acc;
-        }
-      });
-    };
-    driver_.for_range(n, range);
-  }
+  auto range = [&](std::int64_t b, std::int64_t e) { ranges(b, e, timed_call); };
+  driver_.for_range(n, range);
 
   if (timed) {
     // for_range ended with a barrier, so every thread's entry for this loop's parity is final;
