@@ -87,6 +87,11 @@ std::vector<Setting> settings(int particles, const double& base_seconds) {
   // trajectory (kernels/MODEL-NOTES.md, "The experiments at the small size").
   list.push_back({"cg-cap-x10", "CG iteration cap x 10 (as the reference's), scene tolerance",
                   [](Scene& s) { s.simulation.solver.max_iterations *= 10; }});
+  // The line-solve preconditioner at the scene's tolerance and cap: fewer CG iterations a step,
+  // so fewer steps to halve (kernels/MODEL-NOTES.md, "Line solves"). The time-error scenes use
+  // the potential formulation with preconditioning on, which it needs.
+  list.push_back({"line-solves", "line-solve preconditioner, scene tolerance and cap",
+                  [](Scene& s) { s.simulation.solver.line_solves = true; }});
   list.push_back({"numeric-gradient", "numeric (local finite-difference) gradient", [](Scene& s) {
                     s.simulation.solver.gradient = kernels::GradientMode::numeric;
                   }});

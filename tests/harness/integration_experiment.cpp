@@ -137,6 +137,11 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
   ASSERT_NE(uncapped, nullptr);
   EXPECT_LE(uncapped->at("rejected_steps").get<std::int64_t>(),
             base->at("rejected_steps").get<std::int64_t>());
+  const json* lines = find_run(runs, "line-solves");  // fewer iterations a step than the base
+  ASSERT_NE(lines, nullptr);
+  EXPECT_TRUE(lines->at("passed").get<bool>());
+  EXPECT_LT(lines->at("cg_iterations").get<std::int64_t>(),
+            base->at("cg_iterations").get<std::int64_t>());
   if (std::system("gnuplot --version > /dev/null 2>&1") == 0) {
     EXPECT_TRUE(fs::exists(dir / "time_error.png"));
     EXPECT_NE(read_text(dir / "time_error.gp").find("title 'Pareto front'"), std::string::npos);
