@@ -28,6 +28,8 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] std::size_t memory_bytes() const override {
     return lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double);
   }
+  /// The line-solve preconditioner, or null when the scene uses block Jacobi (tests).
+  [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
@@ -39,12 +41,6 @@ class PotentialObjective final : public StepObjective {
   Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
   /// Tangent K_e of edge id (material slope along the edge, tension across it).
   Eigen::Matrix3d edge_tangent(std::int64_t id) const;
-
- public:
-  /// The line-solve preconditioner, or null when the scene uses block Jacobi (tests).
-  [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
-
- private:
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;
