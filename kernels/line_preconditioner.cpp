@@ -13,15 +13,6 @@ Eigen::Matrix3d load(const double* p) {
   m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
   return m;
 }
-void store(double* p, const Eigen::Matrix3d& m) {
-  p[0] = m(0, 0);
-  p[1] = 0.5 * (m(0, 1) + m(1, 0));
-  p[2] = 0.5 * (m(0, 2) + m(2, 0));
-  p[3] = m(1, 1);
-  p[4] = 0.5 * (m(1, 2) + m(2, 1));
-  p[5] = m(2, 2);
-}
-
 }  // namespace
 
 LinePreconditioner::LinePreconditioner(const ClothMesh& mesh) {
@@ -66,7 +57,7 @@ void LinePreconditioner::factor(LoopRunner& run, const StepContext& ctx) {
           pivot -= k * inverse * k;
         }
         inverse = pivot.inverse();
-        store(&pivot_inverse_[12 * s + 6 * d], inverse);
+        store_symmetric(pivot_inverse_, 2 * s + d, inverse);  // 6 per (slot, direction)
       });
     });
   }
