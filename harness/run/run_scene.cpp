@@ -140,10 +140,10 @@ int run_scene(const RunOptions& options) {
     }
     write_file_atomically(dir / "summary.json", document.dump(2) + "\n");
     if (!summary.non_finite.empty()) {
-      write_file_atomically(dir / "non_finite_snapshot.json",
-                            non_finite_snapshot(summary, simulation).dump() + "\n");
-      fmt::print("  wrote {} (the state at the failing step)\n",
-                 (dir / "non_finite_snapshot.json").string());
+      for (const auto& file :
+           write_non_finite_snapshot(dir, "non_finite_snapshot", summary, simulation, scene.name)) {
+        fmt::print("  wrote {} (the state at the failing step)\n", file.string());
+      }
     }
     // The adaptive mesh's levels over the draped cloth (cloth.png, coloured by level).
     if (scene.simulation.amrc.enabled && summary.verification.passed && gnuplot_available()) {

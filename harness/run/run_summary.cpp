@@ -4,8 +4,11 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+
+#include "harness/output/atomic_file.hpp"
 
 namespace clothbench::harness {
 
@@ -279,6 +282,59 @@ nlohmann::json non_finite_snapshot(const RunSummary& summary, const kernels::Sim
           {"edge_force_n_per_m", finite_or_null(st.edge_force)},
           {"triple_moment_n", finite_or_null(st.triple_moment)},
           {"note", "slot-ordered arrays (3 per slot, 2 per slot); null marks a non-finite value"}};
+}
+
+SurfaceMesh non_finite_surface(const kernels::Simulation& simulation) {
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const kernels::ClothState& st = simulation.state();
+  const auto slots = static_cast<std::size_t>(mesh.slot_count());
+  SurfaceMesh out;
+  out.points.reserve(slots);
+  std::vector<double> flag(slots, 0.0), pinned(slots, 0.0);
+  std::array<std::vector<double>, 2> edge_force, triple_moment;
+  for (int d = 0; d < 2; ++d) {
+    edge_force[d].assign(slots, 0.0);
+    triple_moment[d].assign(slots, 0.0);
+  }
+  for (std::size_t s = 0; s < slots; ++s) {
+    Eigen::Vector3d p = kernels::vec3(st.position, static_cast<std::int64_t>(s));
+    int bits = 0;
+    if (!p.allFinite()) {
+      bits |= 1;
+      for (int k = 0; k < 3; ++k) p[k] = std::isfinite(p[k]) ? p[k] : 0.0;
+    }
+    out.points.push_back(p);
+    for (int d = 0; d < 2; ++d) {
+      const auto id = static_cast<std::size_t>(kernels::element_id(static_cast<std::int64_t>(s), d));
+      const double t = st.edge_force[id], m = st.triple_moment[id];
+      if (std::isfinite(t)) edge_force[d][s] = t; else bits |= 2;
+      if (std::isfinite(m)) triple_moment[d][s] = m; else bits |= 4;
+    }
+    flag[s] = bits;
+    pinned[s] = (mesh.flags[static_cast<std::int64_t>(s)] & kernels::kParticlePinned) ? 1.0 : 0.0;
+  }
+  out.quads = simulation.surface_quads();
+  out.point_scalars.emplace_back("non_finite", std::move(flag));
+  out.point_scalars.emplace_back("pinned", std::move(pinned));
+  out.point_scalars.emplace_back("edge_force_i_N_per_m", std::move(edge_force[0]));
+  out.point_scalars.emplace_back("edge_force_j_N_per_m", std::move(edge_force[1]));
+  out.point_scalars.emplace_back("triple_moment_i_N", std::move(triple_moment[0]));
+  out.point_scalars.emplace_back("triple_moment_j_N", std::move(triple_moment[1]));
+  return out;
+}
+
+std::vector<std::filesystem::path> write_non_finite_snapshot(const std::filesystem::path& dir,
+                                                             const std::string& stem,
+                                                             const RunSummary& summary,
+                                                             const kernels::Simulation& simulation,
+                                                             std::string_view title) {
+  const std::filesystem::path json_file = dir / (stem + ".json");
+  const std::filesystem::path vtk_file = dir / (stem + ".vtk");
+  write_file_atomically(json_file, non_finite_snapshot(summary, simulation).dump() + "\n");
+  write_vtk(vtk_file, non_finite_surface(simulation),
+            fmt::format("{}: state at step {} ({})", title, summary.non_finite_step,
+                        summary.non_finite));
+  return {json_file, vtk_file};
 }
 
 SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {

@@ -2,9 +2,11 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "harness/output/vtk_writer.hpp"
@@ -82,6 +84,21 @@ std::string describe_event(const kernels::SceneEvent& event);
 void print_summary(const RunSummary& summary);
 /// The state when a non-finite value appeared, as JSON (non-finite entries become null).
 nlohmann::json non_finite_snapshot(const RunSummary& summary, const kernels::Simulation& simulation);
+/// The same state as a surface for ParaView: every slot's position (the raw state, as in the
+/// JSON; a non-finite coordinate is written as 0), the current surface's quads, and per point
+/// `non_finite` (the sum of 1: position, 2: an edge force at this slot, 4: a triple moment at
+/// this slot - the slot whose element_id holds it), `pinned`, and the element values at the
+/// slot (`edge_force_i_N_per_m`, `edge_force_j_N_per_m`, `triple_moment_i_N`,
+/// `triple_moment_j_N`; a non-finite value written as 0 and flagged). No NaN reaches the file.
+SurfaceMesh non_finite_surface(const kernels::Simulation& simulation);
+/// Writes the diagnostic snapshot of a run stopped by a non-finite value: `<stem>.json`
+/// (non_finite_snapshot) and `<stem>.vtk` (non_finite_surface) in `dir`, each atomically.
+/// Returns the files written, in that order.
+std::vector<std::filesystem::path> write_non_finite_snapshot(const std::filesystem::path& dir,
+                                                             const std::string& stem,
+                                                             const RunSummary& summary,
+                                                             const kernels::Simulation& simulation,
+                                                             std::string_view title);
 /// The run as JSON (no machine block; the caller adds it).
 nlohmann::json summary_json(const RunSummary& summary, const Scene& scene,
                             const std::string& scheduler);

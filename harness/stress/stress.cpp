@@ -130,7 +130,8 @@ int run_stress(const StressOptions& options) {
   int passed = 0, finished = 0;
   for (const StressCell& cell : cells) {
     if (stop.signal() != 0) break;
-    const auto result = run_stress_cell(cell, *driver, [&] { return stop.signal() == 0; });
+    const auto result = run_stress_cell(
+        cell, *driver, [&] { return stop.signal() == 0; }, options.output_dir);
     if (!result) break;
     ++finished;
     passed += result->passed ? 1 : 0;
@@ -143,6 +144,9 @@ int run_stress(const StressOptions& options) {
     if (!options.quiet) {
       fmt::print("{}", cell_line(*result));
       for (const std::string& f : result->failures) fmt::print("      {}\n", f);
+      for (const auto& file : result->snapshot_files) {
+        fmt::print("      wrote {} (the state at the failing step)\n", file.string());
+      }
       std::fflush(stdout);
     }
   }

@@ -92,7 +92,8 @@ void judge_stress_cell(StressCellResult& r) {
 
 std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
                                                 schedulers::LoopDriver& driver,
-                                                const std::function<bool()>& keep_going) {
+                                                const std::function<bool()>& keep_going,
+                                                const std::filesystem::path& snapshot_dir) {
   const auto start = std::chrono::steady_clock::now();
   const kernels::SimulationConfig& config = cell.scene.simulation;
   StressCellResult r;
@@ -136,6 +137,11 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   r.steps_completed = static_cast<int>(summary.steps.size());
   if (!summary.non_finite.empty()) {
     r.non_finite = parse_non_finite(summary.non_finite_step, summary.non_finite);
+    if (!snapshot_dir.empty()) {
+      r.snapshot_files =
+          write_non_finite_snapshot(snapshot_dir, cell.name + "-non_finite_snapshot", summary,
+                                    simulation, "clothbench stress cell " + cell.name);
+    }
   }
   // An accepted step's RMS residual stays below reject_residual unless its halvings ran out:
   // below that level the cost is bounded by the kernel's step rejection.

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -51,6 +52,9 @@ struct StressCellResult {
   double wall_seconds = 0.0;  ///< the whole cell, per-step checks included
   bool passed = false;
   std::vector<std::string> failures;  ///< one line per failed criterion
+  /// The diagnostic snapshot written when the state stopped being finite (JSON and VTK files;
+  /// empty when it stayed finite or no snapshot directory was given).
+  std::vector<std::filesystem::path> snapshot_files;
 };
 
 /// Simulates `cell` with `driver` on the current OpenMP thread count, checking the state after
@@ -58,10 +62,13 @@ struct StressCellResult {
 /// abandoned and nullopt returned. A cell passes when its state stays finite, the mass stays
 /// exact (relative drift <= 1e-12), neither the particles nor the interpolated surface ever
 /// reach the contact distance inside an obstacle, no ghost leaves its coarse edge, and the
-/// step cost stays bounded (judge_stress_cell).
+/// step cost stays bounded (judge_stress_cell). When the state stops being finite and
+/// `snapshot_dir` is not empty, the state at that step is written there as
+/// `<cell name>-non_finite_snapshot.json` and `.vtk` (write_non_finite_snapshot).
 std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
                                                 schedulers::LoopDriver& driver,
-                                                const std::function<bool()>& keep_going);
+                                                const std::function<bool()>& keep_going,
+                                                const std::filesystem::path& snapshot_dir = {});
 
 /// Sets `passed` and `failures` from the figures of `result`: the state stayed finite, the
 /// mass exact, both penetrations below the contact distance, no ghost off its edge, and the

@@ -68,6 +68,10 @@ json cell_json(const StressCellResult& r) {
     non_finite = {{"step", r.non_finite->step},   {"element", r.non_finite->element},
                   {"index", r.non_finite->index}, {"term", r.non_finite->term},
                   {"value", r.non_finite->value}, {"text", r.non_finite->text}};
+    // The snapshot's files by name: they sit next to stress.json.
+    json files = json::array();
+    for (const auto& file : r.snapshot_files) files.push_back(file.filename().string());
+    non_finite["snapshot"] = files;
   }
   const double steps = std::max(1, r.steps_completed);
   return {

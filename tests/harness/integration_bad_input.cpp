@@ -3,7 +3,8 @@
 // unknown preset lists the valid ones; a grid too large for this machine's memory is refused
 // at its [cloth] particles (and `check` prints the estimate of a scene that fits); more threads
 // than the hardware has are refused unless --oversubscribe is given, and then the run says it
-// is oversubscribed in every output.
+// is oversubscribed in every output; a valid scene that overflows stops FAILED with its state
+// written as JSON and VTK and no non-finite number in any file.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -128,6 +129,44 @@ TEST_F(BadInputBinary, CheckPrintsTheMemoryEstimate) {
   EXPECT_THAT(o.output, testing::ContainsRegex(R"(
   memory      about [0-9]+\.[0-9] MiB \(estimate; this machine has [0-9]+\.[0-9] GiB\)
 )"));
+}
+
+// A scene the loader accepts (every value finite) whose first step overflows: the run stops
+// there FAILED (exit 1), names the term, writes the state as JSON and VTK, and no result file
+// holds a NaN or an infinity.
+TEST_F(BadInputBinary, ARunThatOverflowsWritesItsSnapshotAndNoNonFiniteNumber) {
+  const fs::path dir = fresh_dir("overflow");
+  fs::create_directories(dir);
+  const fs::path scene = dir / "overflow.toml";
+  std::ofstream(scene) << "[scene]\nname = \"overflow\"\nsteps = 3\n"
+                          "[cloth]\nparticles = [9, 9]\nsize_m = [0.2, 0.2]\n"
+                          "origin_m = [-0.1, -0.1, 0.0]\nfabric = \"test-cotton\"\n"
+                          "[time]\nstep_s = 0.004\ngravity_m_s2 = [0, 0, -1e308]\n";
+  const fs::path out = dir / "out";
+  const Outcome o =
+      run("run " + quote(scene.string()) + " --quiet --out " + quote(out.string()), kTestPresets);
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("step 1: non-finite value: "));
+  EXPECT_THAT(o.output, HasSubstr("\nVerification: FAILED"));
+  const fs::path run_dir = out / "overflow";
+  for (const char* file : {"summary.json", "non_finite_snapshot.json", "non_finite_snapshot.vtk"}) {
+    ASSERT_TRUE(fs::exists(run_dir / file)) << file << "\n" << o.output;
+  }
+  // Strict JSON (a NaN or infinity would not parse), and finite VTK data below the title line,
+  // which quotes the message.
+  nlohmann::json summary, snapshot;
+  ASSERT_NO_THROW(summary = read_json(run_dir / "summary.json"));
+  ASSERT_NO_THROW(snapshot = read_json(run_dir / "non_finite_snapshot.json"));
+  EXPECT_EQ(summary["verification"]["passed"], false);
+  EXPECT_EQ(snapshot["step"], 1);
+  const std::string vtk = clothbench_test::read_text(run_dir / "non_finite_snapshot.vtk");
+  ASSERT_NE(vtk.find("\nASCII\n"), std::string::npos);
+  const std::string data = vtk.substr(vtk.find("\nASCII\n"));
+  for (const char* bad : {"nan", "NaN", "inf", "Inf"}) {
+    EXPECT_EQ(data.find(bad), std::string::npos) << "the VTK data holds " << bad;
+  }
+  EXPECT_FALSE(fs::exists(run_dir / "final.vtk")) << "a failed run writes no final surface";
+  fs::remove_all(dir);
 }
 
 TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesOnlyWhereTheyExist) {

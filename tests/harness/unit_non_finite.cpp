@@ -1,14 +1,22 @@
 // A non-finite value is caught where it appears: the run stops at that step with a message
 // naming the element and term, the summary marks it FAILED, and no NaN reaches a result file
-// (the JSON holds null where a figure is not finite, plus a snapshot of the state).
+// (the JSON holds null where a figure is not finite), and the state at that step is written
+// as a diagnostic snapshot, JSON and VTK, by `run` and by every stress cell.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 
+#include "harness/output/vtk_writer.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
+#include "harness/stress/stress_cell.hpp"
+#include "harness/stress/stress_report.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/static_driver.hpp"
 
@@ -62,6 +70,108 @@ TEST(NonFinite, RunStopsAndNoNanReachesTheResults) {
   bool has_null = false;
   for (const auto& v : snapshot["position_m"]) has_null = has_null || v.is_null();
   EXPECT_TRUE(has_null);
+
+  // The same state as a surface: the poisoned particle is flagged, every value is finite.
+  const harness::SurfaceMesh surface = harness::non_finite_surface(sim);
+  ASSERT_EQ(surface.points.size(), static_cast<std::size_t>(sim.mesh().slot_count()));
+  ASSERT_FALSE(surface.quads.empty());
+  ASSERT_EQ(surface.point_scalars.front().first, "non_finite");
+  const std::vector<double>& flag = surface.point_scalars.front().second;
+  const auto poisoned = static_cast<std::size_t>(sim.mesh().slot(4, 3));
+  EXPECT_EQ(static_cast<int>(flag[poisoned]) & 1, 1) << "position of (4, 3) flagged";
+  int flagged = 0;
+  for (std::size_t k = 0; k < flag.size(); ++k) {
+    if (flag[k] != 0.0) ++flagged;
+    // Every flagged position really is non-finite in the state, and no other one is.
+    EXPECT_EQ((static_cast<int>(flag[k]) & 1) == 1,
+              !kernels::vec3(sim.state().position, static_cast<std::int64_t>(k)).allFinite())
+        << "slot " << k;
+  }
+  EXPECT_GE(flagged, 1);
+  std::string vtk;
+  ASSERT_NO_THROW(vtk = harness::format_vtk(surface, "snapshot"));
+  EXPECT_EQ(vtk.find("nan"), std::string::npos);
+  EXPECT_EQ(vtk.find("inf"), std::string::npos);
+  EXPECT_NE(vtk.find("SCALARS non_finite double 1"), std::string::npos);
+}
+
+/// A fresh directory for one test, removed at its end.
+struct ScratchDirectory {
+  std::filesystem::path path;
+  explicit ScratchDirectory(const std::string& name)
+      : path(std::filesystem::temp_directory_path() /
+             ("clothbench-" + name + "-" + std::to_string(::getpid()))) {
+    std::filesystem::remove_all(path);
+    std::filesystem::create_directories(path);
+  }
+  ~ScratchDirectory() { std::filesystem::remove_all(path); }
+  ScratchDirectory(const ScratchDirectory&) = delete;
+  ScratchDirectory& operator=(const ScratchDirectory&) = delete;
+};
+
+std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream out;
+  out << in.rdbuf();
+  return out.str();
+}
+
+TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
+  // A cloth placed at a height that is not a number: the state holds NaN from the start.
+  harness::StressCell cell;
+  cell.name = "height-unset";
+  cell.axis = "start";
+  cell.change = "origin z not a number";
+  cell.scene.name = "non-finite stress cell";
+  cell.scene.file = "non-finite-cell.toml";
+  cell.scene.steps = 4;
+  cell.scene.simulation = small_sheet();
+  cell.scene.simulation.cloth.origin.z() = std::numeric_limits<double>::quiet_NaN();
+  const ScratchDirectory dir("stress-snapshot");
+  schedulers::OmpStaticDriver driver;
+  const auto result = harness::run_stress_cell(cell, driver, [] { return true; }, dir.path);
+  ASSERT_TRUE(result.has_value());
+  EXPECT_FALSE(result->passed);
+  ASSERT_TRUE(result->non_finite.has_value());
+  EXPECT_EQ(result->non_finite->step, 1);
+  EXPECT_EQ(result->steps_completed, 0);
+  ASSERT_EQ(result->snapshot_files.size(), 2U);
+  EXPECT_EQ(result->snapshot_files[0], dir.path / "height-unset-non_finite_snapshot.json");
+  EXPECT_EQ(result->snapshot_files[1], dir.path / "height-unset-non_finite_snapshot.vtk");
+
+  const nlohmann::json snapshot = nlohmann::json::parse(read_text(result->snapshot_files[0]));
+  EXPECT_EQ(snapshot["step"], 1);
+  EXPECT_EQ(snapshot["where"], result->non_finite->text);
+  const std::string vtk = read_text(result->snapshot_files[1]);
+  EXPECT_EQ(vtk.rfind("# vtk DataFile Version 3.0\n", 0), 0U);
+  EXPECT_NE(vtk.find("state at step 1"), std::string::npos);
+  // Past the title line (which quotes the message) no value is NaN.
+  const std::string data = vtk.substr(vtk.find("\nASCII\n"));
+  EXPECT_EQ(data.find("nan"), std::string::npos) << "no NaN in the VTK file's data";
+  // The flag field holds one value per slot, and some of them are set.
+  const std::string field = "SCALARS non_finite double 1\nLOOKUP_TABLE default\n";
+  const std::size_t at = vtk.find(field);
+  ASSERT_NE(at, std::string::npos);
+  std::istringstream values(vtk.substr(at + field.size()));
+  int set = 0;
+  for (std::int64_t k = 0; k < kernels::Simulation(cell.scene.simulation).mesh().slot_count(); ++k) {
+    double v = -1.0;
+    ASSERT_TRUE(values >> v) << "flag " << k;
+    ASSERT_TRUE(v >= 0.0 && v <= 7.0) << "flag " << k << " = " << v;
+    if (v != 0.0) ++set;
+  }
+  EXPECT_GT(set, 0);
+
+  // The report names the snapshot's files next to stress.json; without a directory none is
+  // written.
+  const nlohmann::json c = harness::cell_json(*result);
+  EXPECT_EQ(c["non_finite"]["snapshot"],
+            nlohmann::json::array({"height-unset-non_finite_snapshot.json",
+                                   "height-unset-non_finite_snapshot.vtk"}));
+  const auto without = harness::run_stress_cell(cell, driver, [] { return true; });
+  ASSERT_TRUE(without.has_value());
+  EXPECT_TRUE(without->snapshot_files.empty());
+  EXPECT_TRUE(without->non_finite.has_value());
 }
 
 }  // namespace
