@@ -1,6 +1,8 @@
 // Machine context: hwloc topology, uname, compiler/build, OpenMP runtime and settings.
 #include "harness/machine/machine_context.hpp"
 
+#include "harness/machine/git_revision.hpp"
+
 #include <fmt/format.h>
 #include <hwloc.h>
 #include <link.h>
@@ -251,7 +253,7 @@ nlohmann::json machine_context() {
   context["compiler"] = compiler();
   context["build"] = {{"type", CLOTHBENCH_BUILD_TYPE},
                       {"flags", CLOTHBENCH_CXX_FLAGS},
-                      {"git_revision", CLOTHBENCH_GIT_REVISION}};
+                      {"git_revision", git_revision()}};
 
   nlohmann::json runtime = {{"name", "unknown"}, {"path", ""}};
   dl_iterate_phdr(find_openmp_runtime, &runtime);
@@ -274,7 +276,7 @@ nlohmann::json machine_context() {
 
 std::string version_string() {
   const auto id = compiler();
-  return fmt::format("clothbench revision {} ({} build, {} {})", CLOTHBENCH_GIT_REVISION,
+  return fmt::format("clothbench revision {} ({} build, {} {})", git_revision(),
                      CLOTHBENCH_BUILD_TYPE, id.at("id").get<std::string>(),
                      id.at("version").get<std::string>());
 }

@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <iomanip>
 #include <sstream>
+#include <string>
 
+#include "harness/machine/git_revision.hpp"
 #include "harness/machine/machine_context.hpp"
 
 namespace {
@@ -86,6 +89,29 @@ TEST(MachineContext, OpenMpRuntimeAndSettings) {
   EXPECT_EQ(omp.at("environment").at("GOMP_CLOTHBENCH_TEST").get<std::string>(), "1");
   EXPECT_FALSE(omp.at("environment").contains("PATH"));
   unsetenv("GOMP_CLOTHBENCH_TEST");
+}
+
+// The revision is taken when the binary is built, so it names the HEAD of the tree the tests
+// were built from (one taken at configure time names whatever was checked out then).
+TEST(MachineContext, GitRevisionIsTheHeadTheBinaryWasBuiltFrom) {
+  const std::string revision = clothbench::harness::git_revision();
+  EXPECT_EQ(machine_context().at("build").at("git_revision").get<std::string>(), revision);
+  ASSERT_THAT(revision, testing::MatchesRegex("[0-9a-f]{12}(-dirty)?|unknown"));
+  std::string head;
+  const std::string command =
+      std::string("git -C '") + CLOTHBENCH_SOURCE_DIR + "' rev-parse --short=12 HEAD 2>/dev/null";
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char line[64] = {};
+    if (std::fgets(line, sizeof line, pipe) != nullptr) head = line;
+    pclose(pipe);
+  }
+  while (!head.empty() && (head.back() == '\n' || head.back() == '\r')) head.pop_back();
+  if (head.empty()) {
+    EXPECT_EQ(revision, "unknown") << "no git checkout at " << CLOTHBENCH_SOURCE_DIR;
+  } else {
+    EXPECT_EQ(revision.substr(0, 12), head)
+        << "the binary was built from another commit than the checkout's HEAD: rebuild";
+  }
 }
 
 TEST(MachineContext, SummaryMentionsTheEssentials) {
