@@ -1,8 +1,8 @@
 // Stress cells run in-process (label slow: minutes, not in the default test run): every cell
 // of the quick matrix and a set of full-size cells must pass; the cells that meet a
 // documented limit of the model (kernels/MODEL-NOTES.md, "Stress matrix") must fail on that
-// limit alone - two quick cells on the interpolated surface, the full-size stretched start on
-// the cost bound - so that any other failure in them is caught too.
+// limit alone - two quick cells on the interpolated surface; the full-size stretched start may
+// fail only on the cost bound - so that any other failure in them is caught too.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -130,20 +130,24 @@ INSTANTIATE_TEST_SUITE_P(Quick, StressCellMeetsSurfaceLimit,
                                          Named{StressSize::quick, "amrc-thrashing+crumpled"}),
                          test_name);
 
-// The full-size start stretched by 20 %: the snap-back collapses the sheet (edges of zero
-// length, no compression resistance), CG finds no descent and the kernel accepts steps once
-// their halvings run out; the cell must fail on the cost bound alone and stay finite.
-TEST(StressCellCollapses, FullStretchedStartLeavesTheCostBoundAndStaysFinite) {
+// The full-size start stretched by 20 %: the snap-back collapses edges to zero length (no
+// compression resistance) and the kernel accepts steps once their halvings run out. Whether
+// the minimiser then escapes the collapsed state depends on rounding (kernels/MODEL-NOTES.md,
+// "Stress matrix"): the cell may pass, or fail on the cost bound - and on nothing else. The
+// state stays finite, the mass exact and the particles outside the sphere either way.
+TEST(StressCellCollapses, FullStretchedStartCollapsesAndStaysFinite) {
   const StressCellResult r = run(cell_of(StressSize::full, "stretched-20"));
-  EXPECT_FALSE(r.passed);
-  ASSERT_EQ(r.failures.size(), 1u) << failures(r);
-  EXPECT_THAT(r.failures.front(), testing::HasSubstr("the step cost left its bound"));
   EXPECT_LT(r.min_strain, -0.99) << "an edge of (almost) zero length";
+  EXPECT_GT(r.rejected_steps, 0);
   EXPECT_FALSE(r.non_finite.has_value());
   EXPECT_EQ(r.steps_completed, r.steps_planned);
   EXPECT_LE(r.mass_drift, harness::kMassTolerance);
   EXPECT_LT(r.max_particle_penetration, r.contact_distance);
-  EXPECT_GT(r.rejected_steps, 0);
+  EXPECT_LT(r.max_surface_penetration, r.contact_distance);
+  EXPECT_FALSE(r.cost_trend.growing);
+  for (const std::string& failure : r.failures) {
+    EXPECT_THAT(failure, testing::HasSubstr("the step cost left its bound")) << failures(r);
+  }
 }
 
 }  // namespace
