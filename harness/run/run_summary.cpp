@@ -284,13 +284,26 @@ nlohmann::json non_finite_snapshot(const RunSummary& summary, const kernels::Sim
           {"note", "slot-ordered arrays (3 per slot, 2 per slot); null marks a non-finite value"}};
 }
 
+namespace {
+
+/// 1 for a pinned slot, 0 otherwise: the `pinned` field of both surfaces.
+std::vector<double> pinned_field(const kernels::ClothMesh& mesh) {
+  std::vector<double> pinned(static_cast<std::size_t>(mesh.slot_count()));
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    pinned[static_cast<std::size_t>(s)] = (mesh.flags[s] & kernels::kParticlePinned) ? 1.0 : 0.0;
+  }
+  return pinned;
+}
+
+}  // namespace
+
 SurfaceMesh non_finite_surface(const kernels::Simulation& simulation) {
   const kernels::ClothMesh& mesh = simulation.mesh();
   const kernels::ClothState& st = simulation.state();
   const auto slots = static_cast<std::size_t>(mesh.slot_count());
   SurfaceMesh out;
   out.points.reserve(slots);
-  std::vector<double> flag(slots, 0.0), pinned(slots, 0.0);
+  std::vector<double> flag(slots, 0.0);
   std::array<std::vector<double>, 2> edge_force, triple_moment;
   for (int d = 0; d < 2; ++d) {
     edge_force[d].assign(slots, 0.0);
@@ -305,17 +318,17 @@ SurfaceMesh non_finite_surface(const kernels::Simulation& simulation) {
     }
     out.points.push_back(p);
     for (int d = 0; d < 2; ++d) {
-      const auto id = static_cast<std::size_t>(kernels::element_id(static_cast<std::int64_t>(s), d));
+      const auto id =
+          static_cast<std::size_t>(kernels::element_id(static_cast<std::int64_t>(s), d));
       const double t = st.edge_force[id], m = st.triple_moment[id];
       if (std::isfinite(t)) edge_force[d][s] = t; else bits |= 2;
       if (std::isfinite(m)) triple_moment[d][s] = m; else bits |= 4;
     }
     flag[s] = bits;
-    pinned[s] = (mesh.flags[static_cast<std::int64_t>(s)] & kernels::kParticlePinned) ? 1.0 : 0.0;
   }
   out.quads = simulation.surface_quads();
   out.point_scalars.emplace_back("non_finite", std::move(flag));
-  out.point_scalars.emplace_back("pinned", std::move(pinned));
+  out.point_scalars.emplace_back("pinned", pinned_field(mesh));
   out.point_scalars.emplace_back("edge_force_i_N_per_m", std::move(edge_force[0]));
   out.point_scalars.emplace_back("edge_force_j_N_per_m", std::move(edge_force[1]));
   out.point_scalars.emplace_back("triple_moment_i_N", std::move(triple_moment[0]));
@@ -343,14 +356,12 @@ SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
   SurfaceMesh out;
   out.points.reserve(static_cast<std::size_t>(mesh.slot_count()));
   std::vector<double> contact = simulation.contact_forces();
-  std::vector<double> pinned(static_cast<std::size_t>(mesh.slot_count()));
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
     out.points.emplace_back(kernels::vec3(positions, s));
-    pinned[static_cast<std::size_t>(s)] = (mesh.flags[s] & kernels::kParticlePinned) ? 1.0 : 0.0;
   }
   out.quads = simulation.surface_quads();
   out.point_scalars.emplace_back("contact_force_N", std::move(contact));
-  out.point_scalars.emplace_back("pinned", std::move(pinned));
+  out.point_scalars.emplace_back("pinned", pinned_field(mesh));
   if (const kernels::AdaptiveMesh* tree = simulation.adaptive_mesh()) {
     // Level of each point: the finest leaf it touches (0 = finest mesh).
     std::vector<double> level(static_cast<std::size_t>(mesh.slot_count()), 0.0);

@@ -3,11 +3,9 @@
 // (the JSON holds null where a figure is not finite), and the state at that step is written
 // as a diagnostic snapshot, JSON and VTK, by `run` and by every stress cell.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -19,6 +17,7 @@
 #include "harness/stress/stress_report.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/static_driver.hpp"
+#include "tests/harness/clothbench_process.hpp"
 
 namespace clothbench {
 namespace {
@@ -95,27 +94,6 @@ TEST(NonFinite, RunStopsAndNoNanReachesTheResults) {
   EXPECT_NE(vtk.find("SCALARS non_finite double 1"), std::string::npos);
 }
 
-/// A fresh directory for one test, removed at its end.
-struct ScratchDirectory {
-  std::filesystem::path path;
-  explicit ScratchDirectory(const std::string& name)
-      : path(std::filesystem::temp_directory_path() /
-             ("clothbench-" + name + "-" + std::to_string(::getpid()))) {
-    std::filesystem::remove_all(path);
-    std::filesystem::create_directories(path);
-  }
-  ~ScratchDirectory() { std::filesystem::remove_all(path); }
-  ScratchDirectory(const ScratchDirectory&) = delete;
-  ScratchDirectory& operator=(const ScratchDirectory&) = delete;
-};
-
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream out;
-  out << in.rdbuf();
-  return out.str();
-}
-
 TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
   // A cloth placed at a height that is not a number: the state holds NaN from the start.
   harness::StressCell cell;
@@ -127,22 +105,22 @@ TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
   cell.scene.steps = 4;
   cell.scene.simulation = small_sheet();
   cell.scene.simulation.cloth.origin.z() = std::numeric_limits<double>::quiet_NaN();
-  const ScratchDirectory dir("stress-snapshot");
+  const std::filesystem::path dir = clothbench_test::fresh_dir("stress-snapshot");
   schedulers::OmpStaticDriver driver;
-  const auto result = harness::run_stress_cell(cell, driver, [] { return true; }, dir.path);
+  const auto result = harness::run_stress_cell(cell, driver, [] { return true; }, dir);
   ASSERT_TRUE(result.has_value());
   EXPECT_FALSE(result->passed);
   ASSERT_TRUE(result->non_finite.has_value());
   EXPECT_EQ(result->non_finite->step, 1);
   EXPECT_EQ(result->steps_completed, 0);
   ASSERT_EQ(result->snapshot_files.size(), 2U);
-  EXPECT_EQ(result->snapshot_files[0], dir.path / "height-unset-non_finite_snapshot.json");
-  EXPECT_EQ(result->snapshot_files[1], dir.path / "height-unset-non_finite_snapshot.vtk");
+  EXPECT_EQ(result->snapshot_files[0], dir / "height-unset-non_finite_snapshot.json");
+  EXPECT_EQ(result->snapshot_files[1], dir / "height-unset-non_finite_snapshot.vtk");
 
-  const nlohmann::json snapshot = nlohmann::json::parse(read_text(result->snapshot_files[0]));
+  const nlohmann::json snapshot = clothbench_test::read_json(result->snapshot_files[0]);
   EXPECT_EQ(snapshot["step"], 1);
   EXPECT_EQ(snapshot["where"], result->non_finite->text);
-  const std::string vtk = read_text(result->snapshot_files[1]);
+  const std::string vtk = clothbench_test::read_text(result->snapshot_files[1]);
   EXPECT_EQ(vtk.rfind("# vtk DataFile Version 3.0\n", 0), 0U);
   EXPECT_NE(vtk.find("state at step 1"), std::string::npos);
   // Past the title line (which quotes the message) no value is NaN.
@@ -153,8 +131,9 @@ TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
   const std::size_t at = vtk.find(field);
   ASSERT_NE(at, std::string::npos);
   std::istringstream values(vtk.substr(at + field.size()));
+  const std::int64_t slots = kernels::Simulation(cell.scene.simulation).mesh().slot_count();
   int set = 0;
-  for (std::int64_t k = 0; k < kernels::Simulation(cell.scene.simulation).mesh().slot_count(); ++k) {
+  for (std::int64_t k = 0; k < slots; ++k) {
     double v = -1.0;
     ASSERT_TRUE(values >> v) << "flag " << k;
     ASSERT_TRUE(v >= 0.0 && v <= 7.0) << "flag " << k << " = " << v;
@@ -172,6 +151,7 @@ TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
   ASSERT_TRUE(without.has_value());
   EXPECT_TRUE(without->snapshot_files.empty());
   EXPECT_TRUE(without->non_finite.has_value());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
