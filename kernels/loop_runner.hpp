@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -100,10 +101,19 @@ inline double monotonic_seconds() {
 /// The per-step view of mesh, lists, driver and timers. One object per thread.
 class LoopRunner {
  public:
+  /// `lists` may be null only for a driver over blocks; throws std::logic_error for an
+  /// @active driver without lists.
   LoopRunner(schedulers::LoopDriver& driver, const ClothMesh& mesh, const ActiveLists* lists,
              Instrumentation instrumentation, LoopTimes* times)
       : driver_(driver), mesh_(mesh), lists_(lists), instrumentation_(instrumentation),
-        times_(times) {}
+        times_(times) {
+    // Over blocks an @active driver would give the same bits (only the work differs), so no
+    // result check would notice the missing lists: refuse it instead of falling back.
+    if (driver.space() == schedulers::IterationSpace::active && lists == nullptr) {
+      throw std::logic_error("LoopRunner: " + driver.name() +
+                             " runs over the Active-Lists, but none were given");
+    }
+  }
 
   /// Calls body(id, acc) for every live element of `kind`; acc is a fresh Acc per tile and is
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
@@ -164,7 +174,7 @@ class LoopRunner {
   [[nodiscard]] Acc reduce(const TilePartials<Acc>& partials) const {
     const Use* use = find(&partials);
     const int parity = use == nullptr ? 0 : use->parity;
-    if (use == nullptr || lists_ == nullptr || driver_.space() != schedulers::IterationSpace::active) {
+    if (use == nullptr || driver_.space() != schedulers::IterationSpace::active) {
       return partials.sum(parity);
     }
     return partials.sum(parity, lists_->of(use->kind).tile_begin);
@@ -230,7 +240,7 @@ class LoopRunner {
 
 template <class Acc, class Prepare, class Body>
 void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body) {
-  if (driver_.space() == schedulers::IterationSpace::blocks || lists_ == nullptr) {
+  if (driver_.space() == schedulers::IterationSpace::blocks) {
     timed_loop(mesh_.block_count(), [&](std::int64_t b0, std::int64_t b1, auto& timed_call) {
       timed_call([&] {
         for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {

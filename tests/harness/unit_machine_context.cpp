@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <sched.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <ctime>
 #include <iomanip>
 #include <sstream>
@@ -39,6 +43,36 @@ TEST(MachineContext, TopologyIsSane) {
   EXPECT_GT(c.at("memory").at("total_bytes").get<std::uint64_t>(), 0u);
   EXPECT_EQ(c.at("memory").at("total_bytes").get<std::uint64_t>(),
             clothbench::harness::total_memory_bytes());
+}
+
+// The figures against the system's own sources, read here without the code under test.
+TEST(MachineContext, ProcessorsAndMemoryAgreeWithTheSystem) {
+  const json c = machine_context();
+  // hwloc counts the PUs this process may use (or every online one): between the affinity
+  // mask and the online processors.
+  cpu_set_t mask;
+  CPU_ZERO(&mask);
+  ASSERT_EQ(sched_getaffinity(0, sizeof mask, &mask), 0);
+  const int allowed = CPU_COUNT(&mask);
+  const long online = sysconf(_SC_NPROCESSORS_ONLN);
+  const int pus = c.at("cpu").at("pus").get<int>();
+  EXPECT_GE(pus, allowed) << "sched_getaffinity allows " << allowed;
+  EXPECT_LE(pus, online) << "sysconf: " << online << " online";
+  // Memory: MemTotal of /proc/meminfo (kB).
+  std::ifstream meminfo("/proc/meminfo");
+  ASSERT_TRUE(meminfo) << "/proc/meminfo";
+  std::string key;
+  std::uint64_t kib = 0;
+  while (meminfo >> key) {
+    if (key == "MemTotal:") {
+      meminfo >> kib;
+      break;
+    }
+    meminfo.ignore(256, '\n');
+  }
+  ASSERT_GT(kib, 0u) << "no MemTotal in /proc/meminfo";
+  const double total = static_cast<double>(c.at("memory").at("total_bytes").get<std::uint64_t>());
+  EXPECT_NEAR(total, 1024.0 * static_cast<double>(kib), 1e-3 * 1024.0 * static_cast<double>(kib));
 }
 
 TEST(MachineContext, SystemBuildAndDate) {

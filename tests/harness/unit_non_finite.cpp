@@ -94,6 +94,66 @@ TEST(NonFinite, RunStopsAndNoNanReachesTheResults) {
   EXPECT_NE(vtk.find("SCALARS non_finite double 1"), std::string::npos);
 }
 
+TEST(NonFinite, AnEdgeForceAndATripleMomentAreFlaggedAndNullWhereTheyAre) {
+  kernels::Simulation sim(small_sheet());
+  const kernels::ClothMesh& mesh = sim.mesh();
+  const std::int64_t edge_slot = mesh.slot(3, 4), moment_slot = mesh.slot(5, 2),
+                     both_slot = mesh.slot(6, 3);
+  const std::int64_t edge = kernels::element_id(edge_slot, 1);      // along j
+  const std::int64_t moment = kernels::element_id(moment_slot, 0);  // along i
+  kernels::ClothState& st = sim.state();
+  st.edge_force[edge] = std::numeric_limits<double>::quiet_NaN();
+  st.triple_moment[moment] = std::numeric_limits<double>::infinity();
+  st.edge_force[kernels::element_id(both_slot, 0)] = -std::numeric_limits<double>::infinity();
+  st.triple_moment[kernels::element_id(both_slot, 1)] = std::numeric_limits<double>::quiet_NaN();
+
+  // The surface: 2 = an edge force at this slot, 4 = a triple moment, summed; 0 elsewhere,
+  // and the flagged values written as 0 in their fields.
+  const harness::SurfaceMesh surface = harness::non_finite_surface(sim);
+  auto field = [&](const std::string& name) -> const std::vector<double>& {
+    for (const auto& [key, values] : surface.point_scalars) {
+      if (key == name) return values;
+    }
+    ADD_FAILURE() << "no field " << name;
+    static const std::vector<double> none;
+    return none;
+  };
+  const std::vector<double>& flag = field("non_finite");
+  ASSERT_EQ(flag.size(), static_cast<std::size_t>(mesh.slot_count()));
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    const double expected = s == edge_slot ? 2.0 : s == moment_slot ? 4.0 : s == both_slot ? 6.0 : 0.0;
+    EXPECT_EQ(flag[static_cast<std::size_t>(s)], expected) << "slot " << s;
+  }
+  EXPECT_EQ(field("edge_force_j_N_per_m")[static_cast<std::size_t>(edge_slot)], 0.0);
+  EXPECT_EQ(field("triple_moment_i_N")[static_cast<std::size_t>(moment_slot)], 0.0);
+  EXPECT_EQ(field("edge_force_i_N_per_m")[static_cast<std::size_t>(both_slot)], 0.0);
+  EXPECT_EQ(field("triple_moment_j_N")[static_cast<std::size_t>(both_slot)], 0.0);
+  EXPECT_EQ(field("edge_force_i_N_per_m")[static_cast<std::size_t>(edge_slot)],
+            st.edge_force[kernels::element_id(edge_slot, 0)])
+      << "the finite value beside it is written as it is";
+
+  // The JSON: null exactly at the poisoned entries, numbers everywhere else.
+  harness::RunSummary summary;
+  summary.non_finite_step = 3;
+  summary.non_finite = sim.locate_non_finite();
+  const nlohmann::json snapshot = harness::non_finite_snapshot(summary, sim);
+  const nlohmann::json& forces = snapshot["edge_force_n_per_m"];
+  const nlohmann::json& moments = snapshot["triple_moment_n"];
+  ASSERT_EQ(forces.size(), st.edge_force.size());
+  ASSERT_EQ(moments.size(), st.triple_moment.size());
+  for (std::size_t id = 0; id < forces.size(); ++id) {
+    EXPECT_EQ(forces[id].is_null(), !std::isfinite(st.edge_force[id])) << "edge " << id;
+    EXPECT_EQ(moments[id].is_null(), !std::isfinite(st.triple_moment[id])) << "triple " << id;
+  }
+  EXPECT_TRUE(forces[static_cast<std::size_t>(edge)].is_null());
+  EXPECT_TRUE(moments[static_cast<std::size_t>(moment)].is_null());
+  for (const auto& v : snapshot["position_m"]) EXPECT_TRUE(v.is_number());
+  EXPECT_EQ(snapshot["where"], summary.non_finite);
+  const std::string text = forces.dump() + moments.dump();
+  EXPECT_EQ(text.find("nan"), std::string::npos);
+  EXPECT_EQ(text.find("inf"), std::string::npos);
+}
+
 TEST(NonFinite, StressCellWritesTheStateAsJsonAndVtk) {
   // A cloth placed at a height that is not a number: the state holds NaN from the start.
   harness::StressCell cell;

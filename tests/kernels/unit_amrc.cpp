@@ -45,7 +45,9 @@ std::string where(const ClothMesh& mesh, std::int64_t s) {
 }
 
 /// Every invariant of an adaptive mesh; returns the number of failures (and reports them).
-int check_invariants(const kernels::Simulation& sim, const std::string& context) {
+/// With `lists_expected` (a driver over the Active-Lists has run) the lists must exist.
+int check_invariants(const kernels::Simulation& sim, const std::string& context,
+                     bool lists_expected = false) {
   const ClothMesh& mesh = sim.mesh();
   const AdaptiveMesh& tree = *sim.adaptive_mesh();
   const kernels::ClothState& st = sim.state();
@@ -142,6 +144,7 @@ int check_invariants(const kernels::Simulation& sim, const std::string& context)
   }
 
   // Active-Lists: exactly the live elements, each once, in storage order.
+  if (lists_expected && sim.active_lists() == nullptr) fail("no Active-Lists for an @active driver");
   if (const kernels::ActiveLists* lists = sim.active_lists()) {
     for (auto kind : {kernels::ElementKind::particles, kernels::ElementKind::edges,
                       kernels::ElementKind::triples, kernels::ElementKind::ghosts}) {
@@ -238,6 +241,8 @@ void random_events(int levels, int a, int b, int events, unsigned seed, const st
   kernels::Simulation sim(adaptive_cloth(levels, a, b, true));
   auto driver = schedulers::make_driver(scheduler);
   sim.evaluate(*driver);  // builds the lists when the driver runs over them
+  const bool over_lists = driver->space() == schedulers::IterationSpace::active;
+  ASSERT_EQ(sim.active_lists() != nullptr, over_lists) << scheduler;
   std::mt19937 rng(seed);
   const AdaptiveMesh& tree = *sim.adaptive_mesh();
   std::int64_t refined = 0, coarsened = 0, ghosts_seen = 0;
@@ -264,7 +269,8 @@ void random_events(int levels, int a, int b, int events, unsigned seed, const st
     for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
       deepest_chain = std::max(deepest_chain, chain_depth(sim.mesh(), s));
     }
-    if (check_invariants(sim, "event " + std::to_string(e) + " seed " + std::to_string(seed)) > 0) {
+    if (check_invariants(sim, "event " + std::to_string(e) + " seed " + std::to_string(seed),
+                         over_lists) > 0) {
       return;
     }
   }
@@ -288,7 +294,9 @@ TEST(Amrc, RefineThenCoarsenRestoresTheSameMeshAndLists) {
   kernels::Simulation sim(adaptive_cloth(3, 2, 2));
   auto driver = schedulers::make_driver("active-lists");
   sim.evaluate(*driver);
+  ASSERT_NE(sim.active_lists(), nullptr) << "the lists this test compares";
   std::mt19937 rng(5);
+  int rounds_done = 0;
   for (int round = 0; round < 40; ++round) {
     // A random balanced starting mesh...
     AdaptiveMesh& tree = sim.begin_tree_edit();
@@ -335,8 +343,11 @@ TEST(Amrc, RefineThenCoarsenRestoresTheSameMeshAndLists) {
       for (const TreeCell& c : leaves) then += std::to_string(c.level) + ":" + std::to_string(c.ci) + "," + std::to_string(c.cj) + " ";
       ADD_FAILURE() << "target " << target.level << ":" << target.ci << "," << target.cj << "\nnow  " << now << "\nthen " << then;
     }
-    EXPECT_EQ(check_invariants(sim, "restored"), 0);
+    EXPECT_EQ(check_invariants(sim, "restored", true), 0);
+    ++rounds_done;
   }
+  // A round without a leaf of level 2 or more is skipped; most rounds must have run.
+  EXPECT_GE(rounds_done, 30) << "rounds that refined and coarsened back";
 }
 
 TEST(Amrc, PinnedParticlesStayActive) {
@@ -465,22 +476,48 @@ TEST(Amrc, OffMeansNoTreeAndNoEvents) {
 }
 
 TEST(Amrc, NewParticlesStartOnTheInterpolatedSurface) {
+  // 9 x 9 coarsened to four 4 x 4 cells, then one cell split down to the finest level: every
+  // new particle (and new ghost) lies on the bilinear surface of the old cell that held it,
+  // computed here from that cell's four corners, not by the code that refines.
   kernels::Simulation sim(adaptive_cloth(2, 2, 2));
   AdaptiveMesh& tree = sim.begin_tree_edit();
-  for (int a = 0; a < 4; ++a) {
-    for (int b = 0; b < 4; ++b) tree.coarsen(TreeCell{1, a, b}, sim.mesh());
-  }
-  sim.end_tree_edit();
-  const std::vector<double> coarse_surface = sim.surface_positions();
-  sim.begin_tree_edit().refine(TreeCell{1, 1, 1});
-  sim.end_tree_edit();
-  // The refined cell's new particles lie on the coarse cell's bilinear surface.
-  for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
-    if (!(sim.mesh().flags[s] & kernels::kParticleActive)) continue;
-    for (int k = 0; k < 3; ++k) {
-      EXPECT_NEAR(sim.state().position[3 * s + k], coarse_surface[3 * s + k], 1e-15);
+  for (int k = 1; k <= 2; ++k) {
+    for (int a = 0; a < (4 >> (k - 1)); ++a) {
+      for (int b = 0; b < (4 >> (k - 1)); ++b) tree.coarsen(TreeCell{k, a, b}, sim.mesh());
     }
   }
+  sim.end_tree_edit();
+  ASSERT_EQ(tree.leaves().size(), 4u);
+  const std::vector<std::uint8_t> old_flags = sim.mesh().flags;
+  const std::vector<double> old_position = sim.state().position;
+  AdaptiveMesh& refine = sim.begin_tree_edit();
+  refine.refine(TreeCell{2, 1, 0});
+  for (int a = 2; a < 4; ++a) {
+    for (int b = 0; b < 2; ++b) refine.refine(TreeCell{1, a, b});
+  }
+  sim.end_tree_edit();
+  const ClothMesh& mesh = sim.mesh();
+  auto old_x = [&](int i, int j) { return kernels::vec3(old_position, mesh.slot(i, j)); };
+  int checked = 0, off_quarter = 0;
+  for (int i = 0; i < mesh.size_i(); ++i) {
+    for (int j = 0; j < mesh.size_j(); ++j) {
+      const std::int64_t s = mesh.slot(i, j);
+      const std::uint8_t f = mesh.flags[s];
+      if (!kernels::is_node(f) || kernels::is_node(old_flags[s])) continue;
+      const int i0 = std::min(i / 4, 1) * 4, j0 = std::min(j / 4, 1) * 4;
+      const double u = (i - i0) / 4.0, v = (j - j0) / 4.0;
+      const Eigen::Vector3d expected =
+          (1 - u) * (1 - v) * old_x(i0, j0) + u * (1 - v) * old_x(i0 + 4, j0) +
+          u * v * old_x(i0 + 4, j0 + 4) + (1 - u) * v * old_x(i0, j0 + 4);
+      const Eigen::Vector3d x = kernels::vec3(sim.state().position, s);
+      EXPECT_LT((x - expected).norm(), 1e-14) << "new node " << where(mesh, s);
+      ++checked;
+      if (u != 0.5 && v != 0.5) ++off_quarter;
+    }
+  }
+  EXPECT_GT(checked, 20) << "the split must create new particles";
+  EXPECT_GT(off_quarter, 0) << "new particles off the cell's mid-lines (u or v = 1/4, 3/4)";
+  EXPECT_EQ(check_invariants(sim, "after the split"), 0);
 }
 
 TEST(Amrc, NewParticlesInsideAnObstacleMoveOutToTheContactLayer) {
