@@ -1,0 +1,330 @@
+// The verifiers seen failing: real states, simulated for a few steps and then tampered with
+// (a mass off by 1e-11, a particle pushed into the obstacle, a ghost moved off its coarse
+// edge's midpoint, a non-finite position, one flipped byte of the 1-thread reference), must
+// make `run` (simulate), a sweep run (measure_run) and a sweep row report FAILED with the
+// check that failed named, and a failed row never shows a speed-up. Each tampered state is
+// checked to pass before it is tampered with, so the verdict comes from the tampering.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "harness/report/sweep_table.hpp"
+#include "harness/run/run_summary.hpp"
+#include "harness/scene/scene.hpp"
+#include "harness/stress/stress_cell.hpp"
+#include "harness/sweep/measured_run.hpp"
+#include "harness/sweep/sweep_document.hpp"
+#include "kernels/amrc.hpp"
+#include "kernels/simulation.hpp"
+#include "schedulers/registry.hpp"
+#include "schedulers/static_driver.hpp"
+
+namespace clothbench {
+namespace {
+
+using ::testing::HasSubstr;
+using nlohmann::json;
+
+/// A 9 x 9 sheet lying on a box (its top at z = 0), 2.5 cm spacing.
+kernels::SimulationConfig sheet_on_box() {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = 9;
+  c.cloth.particles_j = 9;
+  c.cloth.block_size = 4;
+  c.cloth.size_i = c.cloth.size_j = 0.2;
+  c.cloth.origin = {-0.1, -0.1, 2.0 * c.contact.distance};
+  kernels::ObstacleConfig box;
+  box.kind = kernels::ObstacleKind::box;
+  box.center = {0.0, 0.0, -0.1};
+  box.half_extents = {0.05, 0.05, 0.1};
+  c.obstacles.push_back(box);
+  return c;
+}
+
+/// The same sheet with AMRC (two levels) and no obstacle.
+kernels::SimulationConfig adaptive_sheet() {
+  kernels::SimulationConfig c = sheet_on_box();
+  c.obstacles.clear();
+  c.cloth.initial_crumple = 0.004;
+  c.amrc.enabled = true;
+  c.amrc.levels = 2;
+  c.amrc.check_every = 1000;  // the mesh changes only where the test says
+  return c;
+}
+
+/// Verifies the current state of `sim` as `clothbench run` does after its last step.
+harness::Verification verify_now(kernels::Simulation& sim) {
+  schedulers::OmpStaticDriver driver;
+  return harness::simulate(sim, driver, 0, true).verification;
+}
+
+/// Simulates `steps` steps and expects the state to pass.
+void simulate_passing(kernels::Simulation& sim, int steps) {
+  schedulers::OmpStaticDriver driver;
+  const harness::RunSummary summary = harness::simulate(sim, driver, steps, true);
+  ASSERT_TRUE(summary.verification.passed) << ::testing::PrintToString(summary.verification.failures);
+  ASSERT_EQ(static_cast<int>(summary.steps.size()), steps);
+}
+
+/// The mesh of `sim`, writable: the tests change a particle's mass behind the kernel's back
+/// (the Simulation object itself is not const, so this is well defined).
+kernels::ClothMesh& writable_mesh(kernels::Simulation& sim) {
+  return const_cast<kernels::ClothMesh&>(sim.mesh());  // NOLINT(cppcoreguidelines-pro-type-const-cast)
+}
+
+/// Adds `relative` x the sheet's mass to particle (4, 4).
+void add_mass(kernels::Simulation& sim, double relative) {
+  kernels::ClothMesh& mesh = writable_mesh(sim);
+  mesh.mass[mesh.slot(4, 4)] += relative * mesh.total_mass();
+}
+
+TEST(RunVerification, AMassOffBy1e11Fails) {
+  kernels::Simulation sim(sheet_on_box());
+  simulate_passing(sim, 2);
+  add_mass(sim, 1e-13);
+  EXPECT_TRUE(verify_now(sim).passed) << "1e-13 is inside the 1e-12 bound";
+  add_mass(sim, 1e-11);
+  const harness::Verification v = verify_now(sim);
+  EXPECT_FALSE(v.passed);
+  ASSERT_EQ(v.failures.size(), 1u) << ::testing::PrintToString(v.failures);
+  EXPECT_THAT(v.failures[0], HasSubstr("step 2: mass"));
+}
+
+TEST(RunVerification, AParticleInsideTheObstacleFails) {
+  kernels::Simulation sim(sheet_on_box());
+  simulate_passing(sim, 2);
+  const std::int64_t s = sim.mesh().slot(4, 4);  // above the box's top face
+  sim.state().position[3 * s + 2] = -0.001;       // 1 mm below it
+  const harness::Verification v = verify_now(sim);
+  EXPECT_FALSE(v.passed);
+  ASSERT_EQ(v.failures.size(), 1u) << ::testing::PrintToString(v.failures);
+  EXPECT_THAT(v.failures[0], HasSubstr("a particle is 0.001 m inside an obstacle"));
+}
+
+TEST(RunVerification, AGhostOffItsMidpointIsACrack) {
+  kernels::Simulation sim(adaptive_sheet());
+  // Coarsen everything to level 1, then split one cell: ghosts hang on its sides.
+  kernels::AdaptiveMesh& tree = sim.begin_tree_edit();
+  for (int a = 0; a < 4; ++a) {
+    for (int b = 0; b < 4; ++b) tree.coarsen(kernels::TreeCell{1, a, b}, sim.mesh());
+  }
+  tree.refine(kernels::TreeCell{1, 1, 1});
+  sim.end_tree_edit();
+  ASSERT_GT(sim.mesh().ghost_count(), 0);
+  simulate_passing(sim, 2);
+  std::int64_t ghost = -1;
+  for (std::int64_t s = 0; s < sim.mesh().slot_count() && ghost < 0; ++s) {
+    if (sim.mesh().flags[s] & kernels::kParticleGhost) ghost = s;
+  }
+  ASSERT_GE(ghost, 0);
+  sim.state().position[3 * ghost + 2] += 1e-6;
+  const harness::Verification v = verify_now(sim);
+  EXPECT_FALSE(v.passed);
+  ASSERT_EQ(v.failures.size(), 1u) << ::testing::PrintToString(v.failures);
+  EXPECT_THAT(v.failures[0], HasSubstr("crack: a ghost is 1e-06 m off the midpoint"));
+}
+
+TEST(RunVerification, ANonFiniteStateFails) {
+  kernels::Simulation sim(sheet_on_box());
+  simulate_passing(sim, 1);
+  sim.state().edge_force[kernels::element_id(sim.mesh().slot(2, 3), 0)] =
+      std::numeric_limits<double>::infinity();
+  const harness::Verification v = verify_now(sim);
+  EXPECT_FALSE(v.passed);
+  EXPECT_THAT(::testing::PrintToString(v.failures), HasSubstr("step 1: non-finite state"));
+}
+
+/// The sheet on the box with a contact penalty a hundredth of what holds a particle's weight
+/// within the contact layer: the cloth sinks into the box under its own weight.
+kernels::SimulationConfig sheet_sinking_into_box() {
+  kernels::SimulationConfig c = sheet_on_box();
+  c.contact.stiffness = 0.01;
+  return c;
+}
+
+TEST(RunVerification, AClothThatSinksIntoTheBoxFails) {
+  kernels::Simulation sim(sheet_sinking_into_box());
+  schedulers::OmpStaticDriver driver;
+  const harness::RunSummary summary = harness::simulate(sim, driver, 10, true);
+  EXPECT_FALSE(summary.verification.passed);
+  EXPECT_THAT(::testing::PrintToString(summary.verification.failures),
+              HasSubstr("step 10: a particle is"));
+  // The same scene with the shipped stiffness passes: the verdict is the sinking's.
+  kernels::Simulation held(sheet_on_box());
+  EXPECT_TRUE(harness::simulate(held, driver, 10, true).verification.passed);
+}
+
+TEST(StressVerification, ACellThatSinksIntoTheBoxFailsOnBothPenetrations) {
+  harness::StressCell cell;
+  cell.name = "soft-contact";
+  cell.axis = "contact";
+  cell.change = "penalty stiffness 0.01";
+  cell.scene.name = "sinking sheet";
+  cell.scene.file = "sinking.toml";
+  cell.scene.steps = 10;
+  cell.scene.simulation = sheet_sinking_into_box();
+  schedulers::OmpStaticDriver driver;
+  const auto result = harness::run_stress_cell(cell, driver, [] { return true; });
+  ASSERT_TRUE(result.has_value());
+  EXPECT_FALSE(result->passed);
+  EXPECT_GT(result->max_particle_penetration, result->contact_distance);
+  const std::string failures = ::testing::PrintToString(result->failures);
+  EXPECT_THAT(failures, HasSubstr("a particle went"));
+  EXPECT_THAT(failures, HasSubstr("the interpolated surface went"));
+  EXPECT_THAT(failures, ::testing::Not(HasSubstr("mass")));
+  EXPECT_THAT(failures, ::testing::Not(HasSubstr("crack")));
+
+  cell.scene.simulation = sheet_on_box();
+  const auto held = harness::run_stress_cell(cell, driver, [] { return true; });
+  ASSERT_TRUE(held.has_value());
+  EXPECT_TRUE(held->passed) << ::testing::PrintToString(held->failures);
+}
+
+/// A reference: `steps` steps of the sheet on one thread, and its state bytes.
+std::string reference_bytes(int steps) {
+  omp_set_num_threads(1);
+  kernels::Simulation sim(sheet_on_box());
+  schedulers::OmpStaticDriver driver;
+  const harness::MeasuredRun run =
+      harness::measure_run(sim, driver, steps, kernels::Instrumentation::off, nullptr);
+  EXPECT_TRUE(run.verification.passed);
+  return harness::state_bytes(sim);
+}
+
+/// A measured run of the sheet with `threads` threads against `reference`.
+harness::MeasuredRun measured(const std::string& scheduler, int threads, int steps,
+                              const std::string* reference) {
+  omp_set_num_threads(threads);
+  kernels::Simulation sim(sheet_on_box());
+  const auto driver = schedulers::make_driver(scheduler);
+  harness::MeasuredRun run =
+      harness::measure_run(sim, *driver, steps, kernels::Instrumentation::loops, reference);
+  omp_set_num_threads(1);
+  return run;
+}
+
+TEST(SweepVerification, OneFlippedByteOfTheReferenceFails) {
+  const std::string reference = reference_bytes(2);
+  const harness::MeasuredRun same = measured("dynamic:1", 2, 2, &reference);
+  ASSERT_TRUE(same.verification.passed) << ::testing::PrintToString(same.verification.failures);
+  EXPECT_TRUE(same.bit_identical);
+
+  // One bit of one byte in the middle of the positions.
+  std::string flipped = reference;
+  const std::size_t at = flipped.size() / 5 + 3;
+  flipped[at] = static_cast<char>(flipped[at] ^ 0x01);
+  const harness::MeasuredRun run = measured("dynamic:1", 2, 2, &flipped);
+  EXPECT_FALSE(run.verification.passed);
+  EXPECT_FALSE(run.bit_identical);
+  ASSERT_EQ(run.verification.failures.size(), 1u);
+  EXPECT_THAT(run.verification.failures[0],
+              HasSubstr("differs from the 1-thread reference (digest " + same.state_digest));
+  EXPECT_THAT(run.verification.failures[0],
+              HasSubstr("first differing byte " + std::to_string(at) + " of " +
+                        std::to_string(reference.size())));
+
+  // A reference of another length (e.g. another mesh) fails too.
+  const std::string shorter = reference.substr(0, reference.size() - 8);
+  EXPECT_FALSE(measured("static", 1, 2, &shorter).verification.passed);
+}
+
+TEST(SweepVerification, AMassOffBy1e11Fails) {
+  omp_set_num_threads(1);
+  kernels::Simulation sim(sheet_on_box());
+  schedulers::OmpStaticDriver driver;
+  ASSERT_TRUE(harness::measure_run(sim, driver, 2, kernels::Instrumentation::off, nullptr)
+                  .verification.passed);
+  add_mass(sim, 1e-11);
+  // measure_run verifies the state it leaves; zero more steps verify the tampered one.
+  const harness::MeasuredRun run =
+      harness::measure_run(sim, driver, 0, kernels::Instrumentation::off, nullptr);
+  EXPECT_FALSE(run.verification.passed);
+  EXPECT_NEAR(run.mass_error, 1e-11, 1e-13);
+  ASSERT_EQ(run.verification.failures.size(), 1u);
+  EXPECT_THAT(run.verification.failures[0], HasSubstr("relative 1e-11"));
+}
+
+TEST(SweepVerification, ANonFiniteStateFails) {
+  omp_set_num_threads(1);
+  kernels::Simulation sim(sheet_on_box());
+  schedulers::OmpStaticDriver driver;
+  ASSERT_TRUE(harness::measure_run(sim, driver, 1, kernels::Instrumentation::off, nullptr)
+                  .verification.passed);
+  sim.state().position[3 * sim.mesh().slot(1, 1)] = std::numeric_limits<double>::quiet_NaN();
+  const harness::MeasuredRun run =
+      harness::measure_run(sim, driver, 0, kernels::Instrumentation::off, nullptr);
+  EXPECT_FALSE(run.verification.passed);
+  EXPECT_FALSE(run.finite);
+  EXPECT_THAT(::testing::PrintToString(run.verification.failures), HasSubstr("non-finite final state"));
+}
+
+TEST(SweepVerification, AFailedRowShowsNoSpeedup) {
+  // Rows made by the sweep's own code from real runs: static on 1 thread (the reference
+  // itself) and on 2 threads, the latter measured against a reference with one flipped byte.
+  const std::string reference = reference_bytes(2);
+  std::string flipped = reference;
+  flipped[flipped.size() / 2] = static_cast<char>(flipped[flipped.size() / 2] ^ 0x10);
+  const json binding = {{"mode", "none"}, {"bound", false}, {"threads", json::array()}};
+  const std::vector<harness::MeasuredRun> one{measured("static", 1, 2, &reference)};
+  const std::vector<harness::MeasuredRun> two{measured("static", 2, 2, &flipped)};
+  const std::vector<harness::MeasuredRun> two_good{measured("dynamic:1", 2, 2, &reference)};
+  const std::vector<harness::MeasuredRun> one_good{measured("dynamic:1", 1, 2, &reference)};
+  const auto level = kernels::Instrumentation::loops;
+  json document = {
+      {"schema", "clothbench.sweep"},
+      {"schema_version", harness::kSweepSchemaVersion},
+      {"created_utc", "2024-01-01T00:00:00Z"},
+      {"updated_utc", "2024-01-01T00:00:00Z"},
+      {"complete", true},
+      {"command", {"clothbench", "sweep"}},
+      {"settings", {{"schedulers", {"static", "dynamic:1"}}, {"threads", {1, 2}}, {"repeat", 1},
+                    {"warmup_steps", 0}, {"steps", 2}, {"instrument", "loops"}, {"bind", "none"},
+                    {"oversubscribe", false}}},
+      {"scene", {{"name", "tampered"}, {"file", "t.toml"}, {"hash", "0"}, {"source", ""}}},
+      {"machine", json::object()},
+      {"openmp_environment", json::object()},
+      {"reference", {{"scheduler", "static@blocks"}, {"threads", 1}, {"state_digest", "0"}}},
+      {"rows",
+       {harness::make_row("static", "static@blocks", "", 1, false, one, one, level, 2, binding),
+        harness::make_row("static", "static@blocks", "", 2, false, two, two, level, 2, binding),
+        harness::make_row("dynamic:1", "dynamic:1@blocks", "", 1, false, one_good, one_good,
+                          level, 2, binding),
+        harness::make_row("dynamic:1", "dynamic:1@blocks", "", 2, false, two_good, two_good,
+                          level, 2, binding)}}};
+  harness::add_derived(document);
+  EXPECT_THAT(harness::validate_sweep_document(document), ::testing::IsEmpty());
+  const json& failed = document["rows"][1];
+  EXPECT_FALSE(failed["verification"]["passed"].get<bool>());
+  EXPECT_FALSE(failed["verification"]["bit_identical"].get<bool>());
+  ASSERT_EQ(failed["verification"]["failures"].size(), 2u) << "both runs of the row";
+  EXPECT_THAT(failed["verification"]["failures"][0].get<std::string>(),
+              HasSubstr("differs from the 1-thread reference"));
+  for (const char* k : {"speedup", "efficiency", "speedup_vs_best_1thread", "efficiency_vs_best_1thread"}) {
+    EXPECT_TRUE(failed["derived"][k].is_null()) << k;
+    EXPECT_TRUE(document["rows"][3]["derived"][k].is_number()) << "the passed 2-thread row: " << k;
+  }
+  // In the table the failed row says FAILED and has no speed-up; the passed row has one.
+  const std::string markdown = harness::format_markdown(document);
+  std::string failed_line, passed_line;
+  std::size_t from = 0;
+  for (std::size_t at = markdown.find('\n'); at != std::string::npos; from = at + 1, at = markdown.find('\n', from)) {
+    const std::string line = markdown.substr(from, at - from);
+    if (line.rfind("| 2 |", 0) != 0) continue;
+    (line.find("FAILED") != std::string::npos ? failed_line : passed_line) = line;
+  }
+  ASSERT_FALSE(failed_line.empty()) << markdown;
+  ASSERT_FALSE(passed_line.empty()) << markdown;
+  EXPECT_THAT(failed_line, HasSubstr("| - | - | - | FAILED (2 checks) |"));
+  EXPECT_THAT(passed_line, ::testing::Not(HasSubstr("| - | - | - |")));
+  EXPECT_THAT(passed_line, HasSubstr("PASSED"));
+  const std::string csv = harness::format_csv(document);
+  EXPECT_THAT(csv, HasSubstr(",,,,FAILED\n"));
+}
+
+}  // namespace
+}  // namespace clothbench
