@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
   std::string formulation;
   std::string gradient;
   std::string preconditioner;
+  std::string method;
   int steps = 0;
   auto* run_command = app.add_subcommand("run", "Simulate a scene and verify the result");
   run_command->add_option("SCENE", run.scene_file, "Scene file (TOML, see scenarios/README.md)")
@@ -87,12 +88,18 @@ int main(int argc, char** argv) {
           ->check(CLI::IsMember({"potential", "violation"}));
   auto* gradient_option = run_command->add_option("--gradient", gradient, "Override the gradient")
                               ->check(CLI::IsMember({"analytic", "numeric"}));
+  auto* method_option =
+      run_command
+          ->add_option("--method", method,
+                       "Override the step's minimiser: nonlinear-cg or newton (truncated Newton "
+                       "with linear PCG on the model Hessian; potential formulation)")
+          ->check(CLI::IsMember(clothbench::kernels::step_method_names()));
   auto* preconditioner_option =
       run_command
           ->add_option("--preconditioner", preconditioner,
-                       "Override the preconditioner: off, on (= block-jacobi), block-jacobi or "
-                       "lines (block-tridiagonal solves along the grid lines)")
-          ->check(CLI::IsMember({"on", "off", "block-jacobi", "lines"}));
+                       "Override the preconditioner: none, block-jacobi or line-solves "
+                       "(block-tridiagonal solves along the grid lines)")
+          ->check(CLI::IsMember(clothbench::kernels::preconditioner_names()));
   run_command->add_option("--out", run.output_dir, "Output directory for VTK and JSON")
       ->capture_default_str();
   bool no_vtk = false;
@@ -213,9 +220,8 @@ int main(int argc, char** argv) {
       if (*steps_option) run.steps = steps;
       if (*formulation_option) run.formulation = formulation;
       if (*gradient_option) run.gradient = gradient;
-      if (*preconditioner_option) {
-        run.preconditioner = preconditioner == "on" ? std::string("block-jacobi") : preconditioner;
-      }
+      if (*method_option) run.method = method;
+      if (*preconditioner_option) run.preconditioner = preconditioner;
       run.write_vtk = !no_vtk;
       return clothbench::harness::run_scene(run);
     }

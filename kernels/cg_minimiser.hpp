@@ -29,7 +29,8 @@ struct MinimiserSettings {
 
 /// Outcome of one step's minimisation.
 struct MinimiserReport {
-  int iterations = 0;
+  int iterations = 0;         ///< nonlinear CG iterations, or Newton iterations
+  int linear_iterations = 0;  ///< Newton only: inner PCG iterations (products with H), summed
   int evaluations = 0;
   int restarts = 0;
   StopReason reason = StopReason::iteration_cap;
@@ -42,13 +43,13 @@ struct MinimiserReport {
   }
 };
 
-/// Minimises one step's objective (begin_step, then CG; the caller decides whether to accept
-/// the result with end_step or to reject it). `first_alpha` carries the first accepted step length from
+/// Minimises one (sub-)step of length dt of the objective (begin_step, then CG; the caller
+/// decides whether to accept the result with end_step or to reject it). `first_alpha` carries the first accepted step length from
 /// step to step (in and out; every thread holds its own identical copy).
 /// `stop_requested` (may be null) is polled after each iteration on every thread; it must
 /// return the same answer on every thread (the caller broadcasts it).
 MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
-                              const MinimiserSettings& settings, double& first_alpha,
+                              const MinimiserSettings& settings, double dt, double& first_alpha,
                               bool (*stop_requested)(void*) = nullptr, void* stop_state = nullptr);
 
 }  // namespace clothbench::kernels

@@ -18,11 +18,14 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
       scalar_partials_(ctx.mesh.tile_count()),
       gather_partials_(ctx.mesh.tile_count()),
       precondition_partials_(ctx.mesh.tile_count()) {
-  if (ctx.config.solver.line_solves && ctx.config.solver.preconditioner) {
+  if (ctx.config.solver.preconditioner == Preconditioner::line_solves) {
     lines_ = std::make_unique<LinePreconditioner>(ctx.mesh);
     line_z_.assign(3 * static_cast<std::size_t>(ctx.mesh.slot_count()), 0.0);
   }
+  if (ctx.config.solver.method == StepMethod::newton) newton_ = std::make_unique<NewtonSystem>(ctx.mesh);
 }
+
+PotentialObjective::~PotentialObjective() = default;
 
 void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
@@ -56,7 +59,7 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  const double dt = ctx_.config.time.step;
+  const double dt = ctx_.dt();
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity() * (mesh.mass[s] / (dt * dt));
   auto add_triple = [&](std::int64_t id, int role) {  // role 0 = a, 1 = c, 2 = b
     const TripleTerm t = triple_term(ctx_, id, x);
@@ -88,8 +91,12 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
 }
 
 void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
+  if (newton_ != nullptr) {
+    assemble_newton(run);
+    return;
+  }
   ClothState& st = ctx_.state;
-  const bool block_jacobi = ctx_.config.solver.preconditioner;
+  const bool block_jacobi = ctx_.config.solver.preconditioner != Preconditioner::none;
   // Without block Jacobi the unknowns are positions in units of the finest spacing h:
   // P^-1 = h^2 I (MODEL.md 5, scaled unknowns).
   const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
@@ -181,7 +188,7 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
     std::sort(list->begin(), list->end());
     list->erase(std::unique(list->begin(), list->end()), list->end());
   }
-  const double dt = ctx_.config.time.step, m = mesh.mass[s];
+  const double dt = ctx_.dt(), m = mesh.mass[s];
   double energy = 0.5 * m / (dt * dt) * (xs - vec3(st.target, s)).squaredNorm() -
                   m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
                   contact_penalty(ctx_, s, xs).energy;
@@ -226,7 +233,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
                             k[2] = t.coefficient[2];
                             acc.value += t.energy;
                           });
-  const double dt = ctx_.config.time.step;
+  const double dt = ctx_.dt();
   const double g_ref = ctx_.gravity_reference();
   const Eigen::Vector3d gravity = ctx_.config.time.gravity;
   // The broad phase runs at the start of each tile, on the positions this loop reads.
@@ -325,12 +332,7 @@ void PotentialObjective::end_step(LoopRunner& run) {
   run.for_each(ElementKind::triples, [&](std::int64_t id) {
     st.triple_moment[id] = triple_term(ctx_, id, x).moment;
   });
-  const double keep = 1.0 - ctx_.config.time.damping;
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    const Eigen::Vector3d xs = x(s);
-    vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
-    vec3(st.step_start, s) = xs;
-  });
+  advance_position_history(run, st, ctx_.config.time, ctx_.dt());
 }
 
 }  // namespace clothbench::kernels

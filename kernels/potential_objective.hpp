@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kernels/line_preconditioner.hpp"
+#include "kernels/newton_system.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/step_objective.hpp"
 
@@ -17,6 +18,8 @@ namespace clothbench::kernels {
 class PotentialObjective final : public StepObjective {
  public:
   explicit PotentialObjective(const StepContext& ctx);
+  ~PotentialObjective() override;
+  StepContext& context() override { return ctx_; }
   void begin_step(LoopRunner& run) override;
   void refresh_preconditioner(LoopRunner& run) override;
   void precondition(LoopRunner& run, Evaluation& e) override;
@@ -26,7 +29,22 @@ class PotentialObjective final : public StepObjective {
   void end_step(LoopRunner& run) override;
   void prepare_history(LoopRunner& run) override;
   [[nodiscard]] std::size_t memory_bytes() const override {
-    return lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double);
+    return (lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double)) +
+           (newton_ == nullptr ? 0 : newton_->memory_bytes());
+  }
+
+  // --- Newton (StepMethod::newton; potential_newton.cpp) ---------------------------------
+  /// Assembles the model Hessian and its preconditioner (block Jacobi or line solves on the
+  /// model's blocks) at the current positions; refresh_preconditioner calls it under Newton.
+  void assemble_newton(LoopRunner& run);
+  /// Solves H p = -g inexactly by linear PCG (g: the gradient of the last evaluate, H the
+  /// model assembled last), stopping when the weighted residual norm
+  /// sqrt(sum |r_i|^2 / (m_i |g|)^2) is <= forcing times that of g, or after max_iterations.
+  /// p goes to state().direction; returns the solve's figures with slope = g . p.
+  LinearSolveReport solve_newton_direction(LoopRunner& run, double forcing, int max_iterations);
+  /// The model Hessian (null unless the method is Newton; tests).
+  [[nodiscard]] ModelHessian* model_hessian() {
+    return newton_ == nullptr ? nullptr : &newton_->hessian;
   }
   /// The line-solve preconditioner, or null when the scene uses block Jacobi (tests).
   [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
@@ -50,6 +68,7 @@ class PotentialObjective final : public StepObjective {
   TilePartials<GatherSums> precondition_partials_;
   std::unique_ptr<LinePreconditioner> lines_;
   std::vector<double> line_z_;  ///< 3 per slot: P^-1 g at the current point (line solves)
+  std::unique_ptr<NewtonSystem> newton_;
 };
 
 }  // namespace clothbench::kernels

@@ -11,6 +11,8 @@
 #include <stdexcept>
 
 #include "kernels/line_preconditioner.hpp"
+#include "kernels/newton_minimiser.hpp"
+#include "kernels/newton_system.hpp"
 #include "kernels/potential_objective.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/violation_objective.hpp"
@@ -25,26 +27,18 @@ Simulation::Simulation(const SimulationConfig& config)
   check_events();
   state_.allocate(mesh_.slot_count());
   place_initial_positions();
-  if (config_.amrc.enabled) {
-    if (config_.solver.formulation == Formulation::violation &&
-        config_.solver.gradient == GradientMode::numeric) {
-      throw std::invalid_argument(
-          "the numeric gradient of the violation formulation is not available with AMRC "
-          "(ghost particles); use the analytic gradient or the potential formulation");
-    }
-    amrc_ = std::make_unique<AdaptiveMesh>(mesh_, config_.amrc.levels);
+  if (const std::vector<ConfigProblem> problems = validate(config_); !problems.empty()) {
+    throw std::invalid_argument(problems.front().key + ": " + problems.front().problem + " (" +
+                                problems.front().expected + ")");
   }
-  if (config_.solver.line_solves && (config_.solver.formulation == Formulation::violation ||
-                                     !config_.solver.preconditioner)) {
-    throw std::invalid_argument(
-        "the line-solve preconditioner needs the potential formulation with preconditioning on "
-        "(formulation = \"potential\", preconditioner = true)");
-  }
+  if (config_.amrc.enabled) amrc_ = std::make_unique<AdaptiveMesh>(mesh_, config_.amrc.levels);
   const StepContext ctx{mesh_, material_, obstacles_, config_, state_};
   if (config_.solver.formulation == Formulation::violation) {
     objective_ = std::make_unique<ViolationObjective>(ctx);
   } else {
-    objective_ = std::make_unique<PotentialObjective>(ctx);
+    auto potential = std::make_unique<PotentialObjective>(ctx);
+    if (config_.solver.method == StepMethod::newton) newton_objective_ = potential.get();
+    objective_ = std::move(potential);
   }
 }
 
@@ -77,6 +71,11 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   settings.tolerance = config_.solver.tolerance;
   settings.max_iterations = config_.solver.max_iterations;
   settings.record_values = config_.solver.record_values;
+  NewtonSettings newton;
+  newton.tolerance = config_.solver.tolerance;
+  newton.max_newton_iterations = config_.solver.max_newton_iterations;
+  newton.max_linear_iterations = config_.solver.max_linear_iterations;
+  newton.record_values = config_.solver.record_values;
   StepReport report;
   const double start = monotonic_seconds();
   // Scripted events are sequential state changes between steps: part of the step's time.
@@ -100,14 +99,15 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
     // One attempt at step length dt; a rejected attempt (residual above reject_residual or not
     // finite) leaves the state as it was (end_step not called) and is redone as two half steps.
     // The velocity carried in target - step_start is rescaled to the new step length.
+    bool (*poll)(void*) = budgeted ? &BudgetPoll::poll : nullptr;
     auto attempt = [&](auto& self, double dt, int level) -> void {
 #pragma omp barrier
-#pragma omp single
-      config_.time.step = dt;
       const MinimiserReport r =
-          budgeted ? minimise_step(*objective_, run, settings, first_alpha, &BudgetPoll::poll, &budget)
-                   : minimise_step(*objective_, run, settings, first_alpha);
+          newton_objective_ != nullptr
+              ? newton_minimise_step(*newton_objective_, run, newton, dt, poll, &budget)
+              : minimise_step(*objective_, run, settings, dt, first_alpha, poll, &budget);
       total.iterations += r.iterations;
+      total.linear_iterations += r.linear_iterations;
       total.evaluations += r.evaluations;
       total.restarts += r.restarts;
       total.values.insert(total.values.end(), r.values.begin(), r.values.end());
@@ -124,10 +124,10 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
         return;
       }
       ++rejected;
-      rescale_velocity(run, 0.5);
+      rescale_velocity(run, dt, 0.5 * dt);
       self(self, 0.5 * dt, level + 1);
       self(self, 0.5 * dt, level + 1);
-      rescale_velocity(run, 2.0);
+      rescale_velocity(run, 0.5 * dt, dt);
     };
     attempt(attempt, full_step, 0);
 #pragma omp barrier
@@ -136,7 +136,6 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
       report.sub_steps = sub_steps;
       report.rejected = rejected;
       first_alpha_ = first_alpha;
-      config_.time.step = full_step;
     }
   }
   if (budgeted) budget_spent_ += monotonic_seconds() - start;
@@ -214,7 +213,10 @@ std::vector<double> Simulation::surface_positions() const {
   return x;
 }
 
-void Simulation::rescale_velocity(LoopRunner& run, double factor) {
+void Simulation::rescale_velocity(LoopRunner& run, double from, double to) {
+  // target - x^n = keep(from) v from; the step of length `to` wants keep(to) v to.
+  const double factor =
+      to / from * velocity_keep(config_.time, to) / velocity_keep(config_.time, from);
   run.for_each(ElementKind::particles, [&](std::int64_t s) {
     auto target = vec3(state_.target, s);
     const auto start = vec3(state_.step_start, s);
@@ -398,8 +400,12 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   // AMRC tree 2 B.
   const std::size_t per_slot =
       7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
-  const std::size_t lines = config.solver.line_solves ? n * LinePreconditioner::kBytesPerSlot : 0;
-  return n * per_slot + lines + (16u << 20);
+  const std::size_t lines = config.solver.preconditioner == Preconditioner::line_solves
+                                ? n * LinePreconditioner::kBytesPerSlot
+                                : 0;
+  const std::size_t newton =
+      config.solver.method == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
+  return n * per_slot + lines + newton + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

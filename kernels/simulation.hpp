@@ -23,6 +23,8 @@
 
 namespace clothbench::kernels {
 
+class PotentialObjective;
+
 /// What one step did.
 struct StepReport {
   int step = 0;                 ///< 1-based index of the completed step
@@ -160,9 +162,10 @@ class Simulation {
   /// obstacle's normal to the contact distance (x, x^n and x~ alike) and puts the ghosts back
   /// on their parents' midpoints. A state with no particle inside an obstacle is unchanged.
   void lift_out_of_obstacles();
-  /// target = step_start + factor (target - step_start): the carried velocity for a new step
-  /// length (called by every thread of the step's region).
-  void rescale_velocity(LoopRunner& run, double factor);
+  /// The carried velocity (target - step_start) of a step of length `from` made that of a step
+  /// of length `to`: scaled by the length and by the damping rate (called by every thread of
+  /// the step's region).
+  void rescale_velocity(LoopRunner& run, double from, double to);
 
   SimulationConfig config_;
   FabricMaterial material_;
@@ -174,6 +177,8 @@ class Simulation {
   ListBuild list_build_ = ListBuild::parallel_prefix_sum;
   std::unique_ptr<AdaptiveMesh> amrc_;
   std::unique_ptr<StepObjective> objective_;
+  /// The objective again when the method is Newton (potential formulation only), else null.
+  PotentialObjective* newton_objective_ = nullptr;
   double first_alpha_ = 1.0;
   int steps_done_ = 0;
   int planned_steps_ = 1;

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "kernels/kes_parameters.hpp"
@@ -22,6 +24,30 @@ enum class GradientMode {
   analytic,  ///< exact chain rule (fast path)
   numeric,   ///< central differences of each unknown's local cost, as the paper did
 };
+
+/// How one implicit step is minimised (MODEL.md section 5).
+enum class StepMethod {
+  nonlinear_cg,  ///< Polak-Ribiere+ nonlinear CG (the paper's Algorithm-I)
+  newton,        ///< truncated Newton: inner linear PCG on the model Hessian (potential only)
+};
+
+/// The preconditioner of the step's CG: of nonlinear CG, or of Newton's inner linear PCG.
+enum class Preconditioner {
+  none,          ///< positions in units of the finest spacing (P^-1 = h^2 I)
+  block_jacobi,  ///< per-particle 3x3 blocks of the model stiffness
+  line_solves,   ///< block-tridiagonal solves along the grid lines (potential formulation)
+};
+
+/// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
+/// "line-solves"), used by scene files, the CLI and every output; from_string returns nullopt
+/// for any other text.
+const char* to_string(StepMethod method);
+const char* to_string(Preconditioner preconditioner);
+std::optional<StepMethod> step_method_from_string(std::string_view text);
+std::optional<Preconditioner> preconditioner_from_string(std::string_view text);
+/// Every accepted string of the choice, in declaration order.
+std::vector<std::string> step_method_names();
+std::vector<std::string> preconditioner_names();
 
 /// Analytic obstacle kinds with signed distance and normal.
 enum class ObstacleKind { plane, box, sphere, cylinder };
@@ -60,10 +86,12 @@ struct ClothConfig {
   unsigned initial_seed = 1;
 };
 
-/// Time integration of MODEL.md section 4: x~ = x^n + (1 - damping)(x^n - x^(n-1)).
+/// Time integration of MODEL.md section 4: x~ = x^n + keep (x^n - x^(n-1)). Damping is a rate
+/// (MODEL.md 5): a (sub-)step of length h keeps (1 - damping)^(h / step) of the velocity, so a
+/// step redone as two halves is damped as much as the whole step.
 struct TimeConfig {
-  double step = 0.01;     ///< dt, s
-  double damping = 0.0;   ///< c_damp in [0, 1)
+  double step = 0.01;     ///< dt, s: the scene's step (sub-steps of a halved step are shorter)
+  double damping = 0.0;   ///< c_damp in [0, 1): velocity lost per step of length `step`
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.80665);  ///< m / s^2
 };
 
@@ -78,17 +106,21 @@ struct ContactConfig {
   bool broad_phase = true;
 };
 
-/// Nonlinear conjugate-gradient minimisation of one step (MODEL.md section 5).
+/// Minimisation of one step (MODEL.md section 5).
 struct SolverConfig {
   Formulation formulation = Formulation::potential;
   GradientMode gradient = GradientMode::analytic;
-  bool preconditioner = true;  ///< per-particle 3x3 block Jacobi
-  /// Precondition with exact block-tridiagonal solves along the grid lines of both directions
-  /// instead of block Jacobi (potential formulation only; kernels/line_preconditioner.hpp).
-  bool line_solves = false;
+  StepMethod method = StepMethod::nonlinear_cg;
+  /// Line solves: exact block-tridiagonal solves along the grid lines of both directions
+  /// (potential formulation only; kernels/line_preconditioner.hpp).
+  Preconditioner preconditioner = Preconditioner::block_jacobi;
   /// Stop when the RMS normalised residual sqrt(En / particles) is below this.
   double tolerance = 1.0e-3;
+  /// Nonlinear CG: iterations per step.
   int max_iterations = 200;
+  /// Newton: Newton iterations per step, and linear PCG iterations per Newton iteration.
+  int max_newton_iterations = 30;
+  int max_linear_iterations = 300;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
   /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.
@@ -142,6 +174,15 @@ struct SceneEvent {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();     ///< N, force
 };
 
+/// One problem of a configuration that the kernel cannot run: the setting's key as a scene
+/// file spells it ("solver.preconditioner") and what is wrong and expected.
+struct ConfigProblem {
+  std::string key;        ///< the setting to point at, "section.key"
+  std::string other_key;  ///< the setting it conflicts with, pointed at when `key` is a default
+  std::string problem;
+  std::string expected;
+};
+
 /// One simulation: cloth, fabric, obstacles, time step, contact, solver, AMRC, events.
 struct SimulationConfig {
   ClothConfig cloth;
@@ -154,5 +195,10 @@ struct SimulationConfig {
   AmrcConfig amrc;
   std::vector<SceneEvent> events;  ///< in file order; several may act on one step
 };
+
+/// The combinations of settings the kernel cannot run (the scene loader maps each key to its
+/// file position; Simulation's constructor throws std::invalid_argument for the first).
+/// Checked in one place: solver method and preconditioner against the formulation.
+std::vector<ConfigProblem> validate(const SimulationConfig& config);
 
 }  // namespace clothbench::kernels

@@ -25,6 +25,12 @@ struct StepContext {
   const std::vector<Obstacle>& obstacles;
   const SimulationConfig& config;
   ClothState& state;
+  /// Length of the (sub-)step being solved (s); 0 = the scene's step. Set by the objective's
+  /// set_step_length when a rejected step is redone in halves: the configuration stays fixed.
+  double step_length = 0.0;
+
+  /// dt of the current (sub-)step, s.
+  [[nodiscard]] double dt() const { return step_length > 0.0 ? step_length : config.time.step; }
 
   /// |g| used to normalise residuals and scale the contact stiffness (m/s^2).
   [[nodiscard]] double gravity_reference() const {
@@ -144,6 +150,24 @@ inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::vector<d
   if (mesh.ghost_count() == 0) return;
   run.for_each(ElementKind::ghosts,
                [&](std::int64_t g) { vec3(values, g) = node_value(mesh, values, g); });
+}
+
+/// The share of the velocity a (sub-)step of length h keeps: damping is a rate (MODEL.md 5),
+/// c_damp per step of the scene's length, so (1 - c_damp)^(h / step).
+inline double velocity_keep(const TimeConfig& time, double h) {
+  return time.damping == 0.0 ? 1.0 : std::pow(1.0 - time.damping, h / time.step);
+}
+
+/// End of an accepted (sub-)step of length h for every particle: the next step's inertial
+/// target x~ = x + keep(h) (x - x^n) and x^n = x (both formulations).
+inline void advance_position_history(LoopRunner& run, ClothState& st, const TimeConfig& time,
+                                     double h) {
+  const double keep = velocity_keep(time, h);
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    const Eigen::Vector3d xs = vec3(st.position, s);
+    vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
+    vec3(st.step_start, s) = xs;
+  });
 }
 
 /// Per-tile sum of one scalar (energies, dot products).

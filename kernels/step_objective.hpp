@@ -87,6 +87,18 @@ class StepObjective {
   /// Stores the step's forces (the hysteresis state) and advances the position history.
   virtual void end_step(LoopRunner& run) = 0;
 
+  /// Sets the length of the (sub-)step that begin_step, evaluate and end_step work with (s):
+  /// the scene's step, or a fraction of it after a rejected step was halved. Every thread of
+  /// the region calls it with the same value (one thread writes; the barrier publishes it).
+  /// The configuration is never written during a step.
+  void set_step_length(double dt) {
+#pragma omp single
+    context().step_length = dt;
+  }
+  [[nodiscard]] double step_length() { return context().dt(); }
+  /// The references and the step length the objective works with.
+  [[nodiscard]] virtual StepContext& context() = 0;
+
   /// Bytes the objective holds beyond ClothState (the line-solve preconditioner's arrays).
   [[nodiscard]] virtual std::size_t memory_bytes() const { return 0; }
 

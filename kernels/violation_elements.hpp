@@ -171,7 +171,7 @@ template <class Positions, class Tension, class Moment>
 inline Eigen::Vector3d newton_residual(const StepContext& ctx, std::int64_t s, const Positions& x,
                                        const Tension& tension, const Moment& moment) {
   const ClothMesh& mesh = ctx.mesh;
-  const double dt = ctx.config.time.step, m = mesh.mass[s];
+  const double dt = ctx.dt(), m = mesh.mass[s];
   auto edge = [&](std::int64_t id) {
     const double l = (x(mesh.next[id]) - x(element_slot(id))).norm();
     return l > 0.0 ? mesh.edge_width[id] * tension(id) / l : 0.0;

@@ -101,7 +101,7 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   auto rho = [&](std::int64_t k) { return vec3(vs_.rho, k); };
   const bool numeric = ctx_.config.solver.gradient == GradientMode::numeric;
-  const double dt = ctx_.config.time.step, g_ref = ctx_.gravity_reference();
+  const double dt = ctx_.dt(), g_ref = ctx_.gravity_reference();
   const Eigen::Vector3d gravity = ctx_.config.time.gravity;
   const std::size_t obstacle_count = ctx_.obstacles.size();
 
@@ -299,7 +299,7 @@ Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s, ObstacleMask 
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  const double dt = ctx_.config.time.step, g_ref = ctx_.gravity_reference();
+  const double dt = ctx_.dt(), g_ref = ctx_.gravity_reference();
   auto newton_weight = [&](std::int64_t j) {  // d^2 (Cn |r_j|^2/(m_j g)^2) / dr_j^2, a scalar
     if (!ctx_.is_free(j)) return 0.0;
     const double mg = mesh.mass[j] * g_ref;
@@ -370,7 +370,7 @@ Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s, ObstacleMask 
 void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
-  const bool block_jacobi = ctx_.config.solver.preconditioner;
+  const bool block_jacobi = ctx_.config.solver.preconditioner != Preconditioner::none;
   const double h = scales_.length;
   const double g_ref = ctx_.gravity_reference();
   auto newton_weight = [&](std::int64_t j) {
@@ -467,12 +467,7 @@ void ViolationObjective::move(LoopRunner& run, double delta) {
 void ViolationObjective::end_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   // The forces are unknowns: the accepted iterate already holds t^(n+1) and M^(n+1).
-  const double keep = 1.0 - ctx_.config.time.damping;
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    const Eigen::Vector3d xs = vec3(st.position, s);
-    vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
-    vec3(st.step_start, s) = xs;
-  });
+  advance_position_history(run, st, ctx_.config.time, ctx_.dt());
 }
 
 }  // namespace clothbench::kernels

@@ -63,6 +63,7 @@ class ViolationObjective final : public StepObjective {
   /// Allocates the ViolationState for ctx.mesh (call outside a parallel region).
   explicit ViolationObjective(const StepContext& ctx);
   void begin_step(LoopRunner& run) override;
+  StepContext& context() override { return ctx_; }
   void refresh_preconditioner(LoopRunner& run) override;
   Evaluation evaluate(LoopRunner& run) override;
   double update_direction(LoopRunner& run, double beta) override;

@@ -91,7 +91,7 @@ std::vector<Setting> settings(int particles, const double& base_seconds) {
   // so fewer steps to halve (kernels/MODEL-NOTES.md, "Line solves"). The time-error scenes use
   // the potential formulation with preconditioning on, which it needs.
   list.push_back({"line-solves", "line-solve preconditioner, scene tolerance and cap",
-                  [](Scene& s) { s.simulation.solver.line_solves = true; }});
+                  [](Scene& s) { s.simulation.solver.preconditioner = kernels::Preconditioner::line_solves; }});
   list.push_back({"numeric-gradient", "numeric (local finite-difference) gradient", [](Scene& s) {
                     s.simulation.solver.gradient = kernels::GradientMode::numeric;
                   }});

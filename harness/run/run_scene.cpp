@@ -39,9 +39,9 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
     solver.gradient = *options.gradient == "numeric" ? kernels::GradientMode::numeric
                                                      : kernels::GradientMode::analytic;
   }
+  if (options.method) solver.method = *kernels::step_method_from_string(*options.method);
   if (options.preconditioner) {
-    solver.preconditioner = *options.preconditioner != "off";
-    solver.line_solves = *options.preconditioner == "lines";
+    solver.preconditioner = *kernels::preconditioner_from_string(*options.preconditioner);
   }
 }
 
@@ -111,16 +111,16 @@ int run_scene(const RunOptions& options) {
   kernels::Simulation& simulation = *owned;
   const bool oversubscribed = threads > hardware_threads();
   fmt::print("clothbench run: {} ({})\n", scene.name, scene.file.string());
-  fmt::print("  particles {} x {}, fabric {}, formulation {}, gradient {}, preconditioner {}\n",
+  fmt::print("  particles {} x {}, fabric {}, formulation {}, gradient {}, method {}, "
+             "preconditioner {}\n",
              scene.simulation.cloth.particles_i, scene.simulation.cloth.particles_j,
              scene.simulation.fabric_name,
              scene.simulation.solver.formulation == kernels::Formulation::potential ? "potential"
                                                                                    : "violation",
              scene.simulation.solver.gradient == kernels::GradientMode::analytic ? "analytic"
                                                                                  : "numeric",
-             !scene.simulation.solver.preconditioner ? "off"
-             : scene.simulation.solver.line_solves   ? "lines"
-                                                     : "block-jacobi");
+             kernels::to_string(scene.simulation.solver.method),
+             kernels::to_string(scene.simulation.solver.preconditioner));
   fmt::print("  scheduler {}, threads {}{}, steps {}\n", driver->name(), threads,
              oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
   if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());

@@ -16,7 +16,8 @@ struct RunOptions {
   std::optional<int> steps;                ///< override the scene's step count
   std::optional<std::string> formulation;  ///< override: "potential" | "violation"
   std::optional<std::string> gradient;     ///< override: "analytic" | "numeric"
-  std::optional<std::string> preconditioner;  ///< override: off, block-jacobi, lines
+  std::optional<std::string> method;          ///< override: kernels::step_method_names()
+  std::optional<std::string> preconditioner;  ///< override: kernels::preconditioner_names()
   std::filesystem::path output_dir = "results/runs";  ///< where the VTK and JSON go
   bool write_vtk = true;
   bool quiet = false;  ///< no per-step lines

@@ -65,6 +65,8 @@ std::string describe_event(const kernels::SceneEvent& e) {
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
                     bool quiet, const StepObserver& observer) {
   RunSummary summary;
+  summary.method = kernels::to_string(simulation.config().solver.method);
+  const bool newton = simulation.config().solver.method == kernels::StepMethod::newton;
   double cost_sum = 0.0;
   simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
   for (int k = 0; k < steps; ++k) {
@@ -72,6 +74,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
     const kernels::MinimiserReport& m = report.minimiser;
     StepRecord record{report.step,
                       m.iterations,
+                      m.linear_iterations,
                       m.evaluations,
                       m.final.cost,
                       kernels::MinimiserReport::rms(m.final),
@@ -83,6 +86,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
     summary.steps.push_back(record);
     summary.wall_seconds += report.seconds;
     summary.total_iterations += m.iterations;
+    summary.total_linear_iterations += m.linear_iterations;
     summary.total_evaluations += m.evaluations;
     summary.rejected_steps += report.rejected;
     cost_sum += m.final.cost / static_cast<double>(std::max<std::int64_t>(1, report.active_elements));
@@ -98,9 +102,11 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
       summary.events.push_back(applied);
     }
     if (!quiet) {
-      fmt::print("  step {:4d}  iterations {:4d}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
+      fmt::print("  step {:4d}  {} {:4d}{}  evaluations {:5d}  cost {:10.4e}  residual rms {:9.3e}"
                  " max {:9.3e}  {:>7.3f} s  {}{}\n",
-                 record.step, record.iterations, record.evaluations, record.cost,
+                 record.step, newton ? "newton" : "iterations", record.iterations,
+                 newton ? fmt::format("  linear {:5d}", record.linear_iterations) : "",
+                 record.evaluations, record.cost,
                  record.residual_rms, record.residual_max, record.seconds, record.stop,
                  record.sub_steps > 1 ? fmt::format(" ({} sub-steps)", record.sub_steps) : "");
       if (report.amrc) {
@@ -142,8 +148,13 @@ void print_summary(const RunSummary& s) {
   const kernels::StateDiagnostics& d = s.final_state;
   fmt::print("Summary\n");
   fmt::print("  steps                    {}\n", s.steps.size());
-  fmt::print("  CG iterations            {} ({} evaluations)\n", s.total_iterations,
-             s.total_evaluations);
+  if (s.method == kernels::to_string(kernels::StepMethod::newton)) {
+    fmt::print("  Newton iterations        {} ({} linear PCG iterations, {} evaluations)\n",
+               s.total_iterations, s.total_linear_iterations, s.total_evaluations);
+  } else {
+    fmt::print("  CG iterations            {} ({} evaluations)\n", s.total_iterations,
+               s.total_evaluations);
+  }
   fmt::print("  rejected steps           {} (redone as shorter sub-steps)\n", s.rejected_steps);
   fmt::print("  average minimised cost   {:.6e} (final E per active element, mean over steps)\n",
              s.average_minimised_cost);
@@ -184,6 +195,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
   for (const StepRecord& r : s.steps) {
     steps.push_back({{"step", r.step},
                      {"iterations", r.iterations},
+                     {"linear_iterations", r.linear_iterations},
                      {"evaluations", r.evaluations},
                      {"cost", r.cost},
                      {"residual_rms", r.residual_rms},
@@ -205,7 +217,10 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
       {"average_minimised_cost", num(s.average_minimised_cost)},
+      {"solver", {{"method", s.method},
+                  {"preconditioner", kernels::to_string(scene.simulation.solver.preconditioner)}}},
       {"cg_iterations", s.total_iterations},
+      {"linear_iterations", s.total_linear_iterations},
       {"evaluations", s.total_evaluations},
       {"rejected_steps", s.rejected_steps},
       {"contact_support_n", num(d.contact_support)},

@@ -28,7 +28,8 @@ struct Verification {
 /// One step's line of the run record.
 struct StepRecord {
   int step = 0;
-  int iterations = 0;
+  int iterations = 0;         ///< nonlinear CG iterations, or Newton iterations
+  int linear_iterations = 0;  ///< Newton: inner PCG iterations (0 for nonlinear CG)
   int evaluations = 0;
   double cost = 0.0;          ///< final E of the step
   double residual_rms = 0.0;  ///< sqrt(En / free particles)
@@ -54,7 +55,9 @@ struct RunSummary {
   kernels::StateDiagnostics final_state;
   double mass_error = 0.0;               ///< |total mass - density W H| / (density W H)
   std::int64_t total_iterations = 0;
+  std::int64_t total_linear_iterations = 0;
   std::int64_t total_evaluations = 0;
+  std::string method;  ///< kernels::to_string(StepMethod) of the run
   std::int64_t rejected_steps = 0;
   int threads = 1;
   bool oversubscribed = false;

@@ -196,9 +196,10 @@ void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
 }
 
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
-  reader.allow_only({"formulation", "gradient", "preconditioner", "line_solves", "tolerance",
-                     "max_iterations",
-                     "numeric_step", "weights", "stretch_reference_fm", "time_budget_s"});
+  reader.allow_only({"formulation", "gradient", "method", "preconditioner", "line_solves",
+                     "tolerance", "max_iterations", "max_newton_iterations",
+                     "max_linear_iterations", "numeric_step", "weights", "stretch_reference_fm",
+                     "time_budget_s"});
   if (auto v = reader.choice("formulation", {"potential", "violation"})) {
     solver.formulation =
         *v == "violation" ? kernels::Formulation::violation : kernels::Formulation::potential;
@@ -207,19 +208,36 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
     solver.gradient =
         *v == "numeric" ? kernels::GradientMode::numeric : kernels::GradientMode::analytic;
   }
-  if (auto v = reader.boolean("preconditioner")) solver.preconditioner = *v;
-  if (auto v = reader.boolean("line_solves")) solver.line_solves = *v;
-  if (solver.line_solves &&
-      (solver.formulation == kernels::Formulation::violation || !solver.preconditioner)) {
-    reader.fail_at(reader.where("line_solves"), "line_solves",
-                   "the line-solve preconditioner is implemented for the potential formulation "
-                   "with preconditioning on",
-                   "expected formulation = \"potential\" and preconditioner = true, or "
-                   "line_solves = false");
+  if (auto v = reader.choice("method", kernels::step_method_names())) {
+    solver.method = *kernels::step_method_from_string(*v);
+  }
+  // The preconditioner was a boolean (with a separate line_solves boolean) before it became a
+  // choice: an old scene gets told what to write instead.
+  if (const toml::node* n = reader.node("preconditioner"); n != nullptr && n->is_boolean()) {
+    const bool on = *n->value<bool>();
+    reader.fail_at(n->source(), "preconditioner",
+                   fmt::format("a boolean is no longer accepted (preconditioner = {})",
+                               on ? "true" : "false"),
+                   fmt::format("expected preconditioner = \"{}\" (one of: {})",
+                               on ? "block-jacobi" : "none",
+                               scene_detail::join_names(kernels::preconditioner_names())));
+  }
+  if (auto v = reader.choice("preconditioner", kernels::preconditioner_names())) {
+    solver.preconditioner = *kernels::preconditioner_from_string(*v);
+  }
+  if (const toml::node* n = reader.node("line_solves")) {
+    reader.fail_at(n->source(), "line_solves", "the key was replaced by a preconditioner choice",
+                   "expected preconditioner = \"line-solves\" instead of line_solves = true");
   }
   if (auto v = reader.number("tolerance", NumberRange::positive())) solver.tolerance = *v;
   if (auto v = reader.integer("max_iterations", 1, std::numeric_limits<int>::max())) {
     solver.max_iterations = static_cast<int>(*v);
+  }
+  if (auto v = reader.integer("max_newton_iterations", 1, std::numeric_limits<int>::max())) {
+    solver.max_newton_iterations = static_cast<int>(*v);
+  }
+  if (auto v = reader.integer("max_linear_iterations", 1, std::numeric_limits<int>::max())) {
+    solver.max_linear_iterations = static_cast<int>(*v);
   }
   if (auto v = reader.number("numeric_step", NumberRange::positive())) solver.numeric_step = *v;
   if (auto v = reader.number("stretch_reference_fm", NumberRange::non_negative(), "0 = m g / h")) {
@@ -459,15 +477,19 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
   if (auto reader = section("amrc")) {
     read_amrc(*reader, sources, file_name, simulation);
   }
-  // The kernel has no numeric gradient of the violation formulation on an adaptive mesh
-  // (kernels::Simulation refuses it); gradient = "numeric" can only come from [solver].
-  if (simulation.amrc.enabled && simulation.solver.formulation == kernels::Formulation::violation &&
-      simulation.solver.gradient == kernels::GradientMode::numeric) {
-    const auto solver = section("solver");
-    solver->fail_at(solver->where("gradient"), "gradient",
-                    "the numeric gradient of the violation formulation is not available with "
-                    "[amrc] enabled = true",
-                    "expected gradient = \"analytic\", formulation = \"potential\" or AMRC off");
+  // Combinations the kernel cannot run (kernels::validate, the one place they are checked),
+  // located at the setting the file gives: the problem's own key, else the one it conflicts with.
+  for (const kernels::ConfigProblem& problem : kernels::validate(simulation)) {
+    for (const std::string& full_key : {problem.key, problem.other_key}) {
+      const std::size_t dot = full_key.find('.');
+      const std::string table = full_key.substr(0, dot), key = full_key.substr(dot + 1);
+      const auto reader = section(table.c_str());
+      if (!reader || reader->node(key) == nullptr) continue;
+      reader->fail_at(reader->where(key), key, problem.problem, problem.expected);
+    }
+    const std::string table = problem.key.substr(0, problem.key.find('.'));
+    fail(file_name, document.source(), table, problem.key.substr(table.size() + 1),
+         problem.problem, problem.expected);
   }
   if (const toml::node* obstacles = document.get("obstacle")) {
     const auto obstacle_sources = read_obstacles(*obstacles, file_name, simulation.obstacles);

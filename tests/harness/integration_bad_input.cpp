@@ -173,15 +173,27 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesOnlyWhereTheyExist
   const fs::path out = fresh_dir("run-lines");
   const std::string common =
       "run " + quote(kTiny.string()) + " --steps 2 --no-vtk --out " + quote(out.string());
-  const Outcome lines = run(common + " --preconditioner lines");
+  const Outcome lines = run(common + " --preconditioner line-solves");
   ASSERT_EQ(lines.exit_code, 0) << lines.output;
-  EXPECT_THAT(lines.output, HasSubstr("preconditioner lines\n"));
+  EXPECT_THAT(lines.output, HasSubstr("method nonlinear-cg, preconditioner line-solves\n"));
   EXPECT_THAT(lines.output, HasSubstr("\nVerification: PASSED"));
+  const Outcome newton = run(common + " --method newton --preconditioner line-solves");
+  ASSERT_EQ(newton.exit_code, 0) << newton.output;
+  EXPECT_THAT(newton.output, HasSubstr("method newton, preconditioner line-solves\n"));
+  EXPECT_THAT(newton.output, HasSubstr("Newton iterations"));
+  EXPECT_THAT(newton.output, HasSubstr("\nVerification: PASSED"));
 
-  const Outcome refused = run(common + " --preconditioner lines --formulation violation");
+  const Outcome refused = run(common + " --preconditioner line-solves --formulation violation");
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
-  EXPECT_THAT(refused.output, HasSubstr("the line-solve preconditioner needs the potential "
-                                        "formulation with preconditioning on"));
+  EXPECT_THAT(refused.output, HasSubstr("solver.preconditioner: the line-solve preconditioner is "
+                                        "implemented for the potential formulation only"));
+  const Outcome no_newton = run(common + " --method newton --formulation violation");
+  EXPECT_EQ(no_newton.exit_code, 2) << no_newton.output;
+  EXPECT_THAT(no_newton.output, HasSubstr("solver.method: Newton's method is implemented for the "
+                                          "potential formulation only"));
+  const Outcome old_name = run(common + " --preconditioner lines");
+  EXPECT_EQ(old_name.exit_code, 2) << old_name.output;
+  EXPECT_THAT(old_name.output, HasSubstr("--preconditioner"));
   const Outcome unknown = run(common + " --preconditioner multigrid");
   EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
   EXPECT_THAT(unknown.output, HasSubstr("--preconditioner"));

@@ -9,10 +9,12 @@
 #include <string>
 
 #include "harness/scene/scene.hpp"
+#include "kernels/simulation.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+namespace kernels = clothbench::kernels;
 using clothbench::harness::load_scene;
 using clothbench::harness::parse_scene;
 using clothbench::harness::SceneError;
@@ -251,7 +253,7 @@ TEST(SceneLoader, FullSceneRoundTripsToTheExpectedConfig) {
 
   EXPECT_EQ(sim.solver.formulation, Formulation::violation);
   EXPECT_EQ(sim.solver.gradient, GradientMode::analytic);
-  EXPECT_FALSE(sim.solver.preconditioner);
+  EXPECT_EQ(sim.solver.preconditioner, clothbench::kernels::Preconditioner::none);
   EXPECT_DOUBLE_EQ(sim.solver.tolerance, 1e-5);
   EXPECT_EQ(sim.solver.max_iterations, 33);
   EXPECT_DOUBLE_EQ(sim.solver.numeric_step, 1e-7);
@@ -298,21 +300,81 @@ TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormula
   }
 }
 
-TEST(SceneLoader, LineSolvesReadAndAreRefusedWhereTheKernelHasNone) {
-  const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nline_solves = true\n";
-  EXPECT_TRUE(parse_scene(text, "lines.toml", kPresets).simulation.solver.line_solves);
-  EXPECT_FALSE(parse_scene("[cloth]\nparticles = [9, 9]\n", "lines.toml", kPresets)
-                   .simulation.solver.line_solves);
-  for (const std::string& other : {std::string("formulation = \"violation\"\n"),
-                                   std::string("preconditioner = false\n")}) {
+TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJacobi) {
+  using clothbench::kernels::Preconditioner;
+  using clothbench::kernels::StepMethod;
+  const kernels::SolverConfig defaults =
+      parse_scene("[cloth]\nparticles = [9, 9]\n", "solver.toml", kPresets).simulation.solver;
+  EXPECT_EQ(defaults.method, StepMethod::nonlinear_cg);
+  EXPECT_EQ(defaults.preconditioner, Preconditioner::block_jacobi);
+  for (const std::string& name : clothbench::kernels::preconditioner_names()) {
+    const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"" + name + "\"\n";
+    const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
+    EXPECT_EQ(clothbench::kernels::to_string(read), name);
+  }
+  for (const std::string& name : clothbench::kernels::step_method_names()) {
+    const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"" + name +
+                             "\"\nmax_newton_iterations = 7\nmax_linear_iterations = 11\n";
+    const kernels::SolverConfig solver = parse_scene(text, "solver.toml", kPresets).simulation.solver;
+    EXPECT_EQ(clothbench::kernels::to_string(solver.method), name);
+    EXPECT_EQ(solver.max_newton_iterations, 7);
+    EXPECT_EQ(solver.max_linear_iterations, 11);
+  }
+}
+
+TEST(SceneLoader, OldPreconditionerBooleansAreRefusedWithWhatToWrite) {
+  const std::string head = "[cloth]\nparticles = [9, 9]\n[solver]\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {"preconditioner = true\n",
+       "solver.toml:4:18: [solver] preconditioner: a boolean is no longer accepted "
+       "(preconditioner = true) (expected preconditioner = \"block-jacobi\""},
+      {"preconditioner = false\n",
+       "solver.toml:4:18: [solver] preconditioner: a boolean is no longer accepted "
+       "(preconditioner = false) (expected preconditioner = \"none\""},
+      {"line_solves = true\n",
+       "solver.toml:4:15: [solver] line_solves: the key was replaced by a preconditioner choice "
+       "(expected preconditioner = \"line-solves\" instead of line_solves = true)"},
+      {"method = \"multigrid\"\n",
+       "solver.toml:4:10: [solver] method: unknown value \"multigrid\" (expected one of: "
+       "nonlinear-cg, newton)"},
+  };
+  for (const auto& [line, message] : cases) {
     try {
-      (void)parse_scene(text + other, "lines.toml", kPresets);
-      FAIL() << "the kernel refuses line solves with " << other;
+      (void)parse_scene(head + line, "solver.toml", kPresets);
+      FAIL() << "accepted " << line;
     } catch (const SceneError& error) {
-      EXPECT_THAT(error.what(),
-                  StartsWith("lines.toml:4:15: [solver] line_solves: the line-solve "
-                             "preconditioner is implemented for the potential formulation"));
+      EXPECT_THAT(error.what(), StartsWith(message)) << line;
     }
+  }
+}
+
+TEST(SceneLoader, SolverCombinationsTheKernelCannotRunAreLocatedAtTheSettingGiven) {
+  const std::string head = "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n";
+  struct Case {
+    std::string line;
+    std::string message;
+  };
+  const Case cases[] = {
+      {"preconditioner = \"line-solves\"\n",
+       "solver.toml:5:18: [solver] preconditioner: the line-solve preconditioner is implemented "
+       "for the potential formulation only"},
+      {"method = \"newton\"\n",
+       "solver.toml:5:10: [solver] method: Newton's method is implemented for the potential "
+       "formulation only"},
+  };
+  for (const Case& c : cases) {
+    try {
+      (void)parse_scene(head + c.line, "solver.toml", kPresets);
+      FAIL() << "accepted " << c.line;
+    } catch (const SceneError& error) {
+      EXPECT_THAT(error.what(), StartsWith(c.message)) << c.line;
+    }
+    // The kernel refuses the same configuration (one check, kernels::validate).
+    kernels::SimulationConfig config;
+    config.solver.formulation = kernels::Formulation::violation;
+    if (c.line.rfind("method", 0) == 0) config.solver.method = kernels::StepMethod::newton;
+    else config.solver.preconditioner = kernels::Preconditioner::line_solves;
+    EXPECT_THROW(kernels::Simulation simulation(config), std::invalid_argument);
   }
 }
 

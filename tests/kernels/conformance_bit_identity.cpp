@@ -24,6 +24,7 @@ struct Case {
   bool amrc;
   bool events = false;
   bool line_solves = false;  ///< the line-solve preconditioner instead of block Jacobi
+  bool newton = false;       ///< Newton with linear PCG instead of nonlinear CG
 };
 
 /// Events on every one of the four steps: a pull (on a particle AMRC may have coarsened away
@@ -72,7 +73,12 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
-  c.solver.line_solves = test_case.line_solves;
+  if (test_case.line_solves) c.solver.preconditioner = kernels::Preconditioner::line_solves;
+  if (test_case.newton) {
+    c.solver.method = kernels::StepMethod::newton;
+    c.solver.max_newton_iterations = 6;
+    c.solver.max_linear_iterations = 20;
+  }
   if (test_case.amrc) {
     // 25 x 17 = 2^3 n + 1; a check after every step with close thresholds, so that cells are
     // split and merged (with ghosts) while the schedulers run over the changing lists.
@@ -158,14 +164,18 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, false, true},
                                            Case{kernels::Formulation::violation, true, true},
                                            Case{kernels::Formulation::potential, false, false, true},
-                                           Case{kernels::Formulation::potential, true, true, true}),
+                                           Case{kernels::Formulation::potential, true, true, true},
+                                           Case{kernels::Formulation::potential, false, false, false, true},
+                                           Case{kernels::Formulation::potential, true, true, false, true},
+                                           Case{kernels::Formulation::potential, true, true, true, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
                                                   : "violation";
                            if (info.param.amrc) name += "_amrc";
                            if (info.param.events) name += "_events";
-                           return info.param.line_solves ? name + "_lines" : name;
+                           if (info.param.line_solves) name += "_lines";
+                           return info.param.newton ? name + "_newton" : name;
                          });
 
 }  // namespace

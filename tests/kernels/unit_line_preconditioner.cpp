@@ -26,7 +26,7 @@ kernels::SimulationConfig stretched_sheet(int n) {
   c.cloth.origin = {-0.25, -0.25, 0.0};
   c.cloth.pinned = {{0, 0}, {n - 1, n - 1}};
   c.time.step = 0.004;
-  c.solver.line_solves = true;
+  c.solver.preconditioner = kernels::Preconditioner::line_solves;
   return c;
 }
 
@@ -185,15 +185,12 @@ TEST(LinePreconditioner, TheKernelRefusesItWhereItHasNone) {
   kernels::SimulationConfig violation = stretched_sheet(9);
   violation.solver.formulation = kernels::Formulation::violation;
   EXPECT_THROW(kernels::Simulation{violation}, std::invalid_argument);
-  kernels::SimulationConfig unpreconditioned = stretched_sheet(9);
-  unpreconditioned.solver.preconditioner = false;
-  EXPECT_THROW(kernels::Simulation{unpreconditioned}, std::invalid_argument);
   EXPECT_NO_THROW(kernels::Simulation{stretched_sheet(9)});
 }
 
 TEST(LinePreconditioner, MemoryEstimateCoversItsArrays) {
   kernels::SimulationConfig block_jacobi = stretched_sheet(65);
-  block_jacobi.solver.line_solves = false;
+  block_jacobi.solver.preconditioner = kernels::Preconditioner::block_jacobi;
   const kernels::SimulationConfig lines = stretched_sheet(65);
   EXPECT_EQ(kernels::estimate_memory_bytes(lines) - kernels::estimate_memory_bytes(block_jacobi),
             65u * 65u * LinePreconditioner::kBytesPerSlot);

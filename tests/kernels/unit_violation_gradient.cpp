@@ -377,7 +377,8 @@ TEST(ViolationObjective, EvaluationIsBitIdenticalAcrossThreadCounts) {
 TEST(ViolationObjective, StepsLowerTheCostAndKeepForcesAsState) {
   for (const bool preconditioned : {false, true}) {
     SimulationConfig c = make_config({1, 1, 1, 1}, true);
-    c.solver.preconditioner = preconditioned;
+    c.solver.preconditioner =
+        preconditioned ? kernels::Preconditioner::block_jacobi : kernels::Preconditioner::none;
     c.solver.max_iterations = 30;
     c.solver.tolerance = 1e-9;
     c.solver.reject_residual = 1e300;  // one attempt per step: this test is about CG alone

@@ -1,0 +1,219 @@
+// The model Hessian of the potential formulation (see model_hessian.hpp).
+#include "kernels/model_hessian.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "kernels/potential_elements.hpp"
+
+namespace clothbench::kernels {
+
+namespace {
+
+Eigen::Matrix3d load_symmetric(const std::vector<double>& in, std::int64_t s) {
+  const double* p = in.data() + 6 * s;
+  Eigen::Matrix3d m;
+  m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
+  return m;
+}
+
+/// The arms of triple id: unit vectors u1 = e1/|e1|, u2 = e2/|e2| and 1/|e1|, 1/|e2|, with
+/// e1 = x_c - x_a, e2 = x_b - x_c. `valid` is false when an arm has zero length.
+struct TripleArms {
+  Eigen::Vector3d u1, u2;
+  double inverse1 = 0.0, inverse2 = 0.0;
+  bool valid = false;
+};
+
+template <class Positions>
+TripleArms triple_arms(const ClothMesh& mesh, std::int64_t id, const Positions& x) {
+  TripleArms arms;
+  const Eigen::Vector3d xc = x(element_slot(id));
+  const Eigen::Vector3d e1 = xc - x(mesh.prev[id]), e2 = x(mesh.next[id]) - xc;
+  const double n1 = e1.norm(), n2 = e2.norm();
+  if (!(n1 > 0.0) || !(n2 > 0.0)) return arms;
+  arms.inverse1 = 1.0 / n1;
+  arms.inverse2 = 1.0 / n2;
+  arms.u1 = e1 * arms.inverse1;
+  arms.u2 = e2 * arms.inverse2;
+  arms.valid = true;
+  return arms;
+}
+
+/// (I - u u^T) q.
+inline Eigen::Vector3d project_out(const Eigen::Vector3d& u, const Eigen::Vector3d& q) {
+  return q - u * u.dot(q);
+}
+
+/// K d for K = alpha u u^T + beta (I - u u^T).
+inline Eigen::Vector3d edge_product(double alpha, double beta, const Eigen::Vector3d& u,
+                                    const Eigen::Vector3d& d) {
+  return beta * d + (alpha - beta) * u * u.dot(d);
+}
+
+}  // namespace
+
+ModelHessian::ModelHessian(const ClothMesh& mesh) : dot_partials_(mesh.tile_count()) {
+  const auto slots = static_cast<std::size_t>(mesh.slot_count());
+  inertia_.assign(6 * slots, 0.0);
+  edge_.assign(4 * slots, 0.0);
+  bending_.assign(2 * slots, 0.0);
+}
+
+void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx) {
+  const ClothMesh& mesh = ctx.mesh;
+  const ClothState& st = ctx.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+    const EdgeTerm e = edge_term(ctx, id, x);
+    const double w = mesh.edge_width[id];
+    edge_[2 * id] = w * e.slope / mesh.edge_rest[id];
+    edge_[2 * id + 1] = e.length > 0.0 ? w * std::max(e.force, 0.0) / e.length : 0.0;
+  });
+  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+    // The band's slope on the branch the return mapping takes at the current curvature: zero
+    // on the plateau (a straight triple with no previous moment lies on it). A straight triple
+    // with a previous moment is on the loading branch as soon as it bends: its slope there is
+    // the limit at zero curvature, B + HB / kappa0 (the return mapping itself gives 0 at 0).
+    const TripleTerm t = triple_term(ctx, id, x);
+    double slope = t.slope;
+    if (!(t.curvature > 0.0) && st.triple_moment[id] > 0.0) {
+      slope = ctx.material.bending[element_direction(id)]
+                  .curves(std::numeric_limits<double>::min())
+                  .upper_slope;
+    }
+    bending_[id] = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
+  });
+}
+
+Eigen::Matrix3d ModelHessian::element_diagonal(const StepContext& ctx, std::int64_t s) const {
+  const ClothMesh& mesh = ctx.mesh;
+  const ClothState& st = ctx.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  auto add_edge = [&](std::int64_t id) {
+    const Eigen::Vector3d e = x(mesh.next[id]) - x(element_slot(id));
+    const double l = e.norm();
+    if (!(l > 0.0)) return;
+    const Eigen::Vector3d u = e / l;
+    const double alpha = edge_[2 * id], beta = edge_[2 * id + 1];
+    h += beta * identity + (alpha - beta) * u * u.transpose();
+  };
+  // role 0 = a (previous), 1 = c (centre), 2 = b (next): J_a = P1/|e1|, J_b = P2/|e2|,
+  // J_c = -(J_a + J_b); the block is c J_r^T J_r.
+  auto add_triple = [&](std::int64_t id, int role) {
+    const double c = bending_[id];
+    if (!(c > 0.0)) return;
+    const TripleArms arms = triple_arms(mesh, id, x);
+    if (!arms.valid) return;
+    const Eigen::Matrix3d ja = (identity - arms.u1 * arms.u1.transpose()) * arms.inverse1;
+    const Eigen::Matrix3d jb = (identity - arms.u2 * arms.u2.transpose()) * arms.inverse2;
+    const Eigen::Matrix3d j = role == 0 ? ja : role == 2 ? jb : Eigen::Matrix3d(-(ja + jb));
+    h += c * j.transpose() * j;
+  };
+  for (int d = 0; d < 2; ++d) {
+    const std::int64_t id = element_id(s, d);
+    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+    if (mesh.edge_active[id]) add_edge(id);
+    if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      add_edge(element_id(p, d));
+    }
+    if (mesh.triple_active[id]) add_triple(id, 1);
+    if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
+      add_triple(element_id(n, d), 0);
+    }
+    if (p >= 0 && mesh.triple_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
+      add_triple(element_id(p, d), 2);
+    }
+  }
+  return h;
+}
+
+Eigen::Matrix3d ModelHessian::edge_block(const StepContext& ctx, std::int64_t id) const {
+  const ClothState& st = ctx.state;
+  const Eigen::Vector3d e = vec3(st.position, ctx.mesh.next[id]) - vec3(st.position, element_slot(id));
+  const double l = e.norm();
+  if (!(l > 0.0)) return Eigen::Matrix3d::Zero();
+  const Eigen::Vector3d u = e / l;
+  const double alpha = edge_[2 * id], beta = edge_[2 * id + 1];
+  return beta * Eigen::Matrix3d::Identity() + (alpha - beta) * u * u.transpose();
+}
+
+double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<double>& v,
+                           std::vector<double>& y) {
+  const ClothMesh& mesh = ctx.mesh;
+  ClothState& st = ctx.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  auto value = [&](std::int64_t k) { return vec3(v, k); };
+  refresh_ghosts(run, mesh, v);
+  // Triples: q_t = c J v = c (P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1|), 3 per id.
+  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+    auto q = vec3(st.triple_scratch, id);
+    const double c = bending_[id];
+    const TripleArms arms = c > 0.0 ? triple_arms(mesh, id, x) : TripleArms{};
+    if (!arms.valid) {
+      q.setZero();
+      return;
+    }
+    const Eigen::Vector3d vc = value(element_slot(id));
+    q = c * (project_out(arms.u2, value(mesh.next[id]) - vc) * arms.inverse2 -
+             project_out(arms.u1, vc - value(mesh.prev[id])) * arms.inverse1);
+  });
+  // Particles: what each node receives from its edges and triples, ghosts' shares included.
+  auto node_product = [&](std::int64_t k) {
+    Eigen::Vector3d out = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d xk = x(k), vk = value(k);
+    auto edge_to = [&](std::int64_t id, std::int64_t other) {
+      const Eigen::Vector3d e = x(other) - xk;
+      const double l = e.norm();
+      if (!(l > 0.0)) return;
+      out += edge_product(edge_[2 * id], edge_[2 * id + 1], e / l, vk - value(other));
+    };
+    for (int d = 0; d < 2; ++d) {
+      const std::int64_t id = element_id(k, d);
+      const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+      if (n >= 0) {
+        if (mesh.edge_active[id]) edge_to(id, n);
+        const std::int64_t tn = element_id(n, d);  // k is the previous node of n's triple
+        if (mesh.triple_active[tn] && mesh.prev[tn] == k && bending_[tn] > 0.0) {
+          const TripleArms arms = triple_arms(mesh, tn, x);
+          if (arms.valid) out += project_out(arms.u1, vec3(st.triple_scratch, tn)) * arms.inverse1;
+        }
+      }
+      if (p >= 0) {
+        const std::int64_t ep = element_id(p, d);  // k is the next node of p's edge and triple
+        if (mesh.edge_active[ep] && mesh.next[ep] == k) edge_to(ep, p);
+        if (mesh.triple_active[ep] && mesh.next[ep] == k && bending_[ep] > 0.0) {
+          const TripleArms arms = triple_arms(mesh, ep, x);
+          if (arms.valid) out += project_out(arms.u2, vec3(st.triple_scratch, ep)) * arms.inverse2;
+        }
+      }
+      if (mesh.triple_active[id] && bending_[id] > 0.0) {
+        const TripleArms arms = triple_arms(mesh, id, x);
+        if (arms.valid) {
+          const Eigen::Vector3d q = vec3(st.triple_scratch, id);
+          out -= project_out(arms.u1, q) * arms.inverse1 + project_out(arms.u2, q) * arms.inverse2;
+        }
+      }
+    }
+    return out;
+  };
+  run.for_each<ScalarSum>(ElementKind::particles, &dot_partials_, [&](std::int64_t s, ScalarSum& acc) {
+    auto out = vec3(y, s);
+    if (!ctx.is_free(s)) {
+      out.setZero();
+      return;
+    }
+    out = load_symmetric(inertia_, s) * value(s) + with_ghost_children(mesh, s, node_product);
+    acc.value += value(s).dot(out);
+  });
+  return run.reduce(dot_partials_).value;
+}
+
+std::size_t ModelHessian::memory_bytes() const {
+  return (inertia_.capacity() + edge_.capacity() + bending_.capacity()) * sizeof(double);
+}
+
+}  // namespace clothbench::kernels

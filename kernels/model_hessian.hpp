@@ -1,0 +1,102 @@
+// The model Hessian H of the potential formulation's step (MODEL.md section 5, Newton): a
+// symmetric positive definite stand-in for the second derivative of Phi, applied without a
+// matrix. Its terms, assembled at the current positions:
+//   inertia      m / dt^2 I per free particle;
+//   contact      k n n^T per particle within the contact distance of an obstacle;
+//   edges        K_e = alpha u u^T + beta (I - u u^T) between the two ends, alpha = w t' / L
+//                (the band's slope on the current branch), beta = w max(t, 0) / l: exact for
+//                an edge in tension, positive semi-definite always;
+//   triples      Gauss-Newton bending c J^T J between the three particles, J = d kappa / dx of
+//                the turning vector kappa = e2/|e2| - e1/|e1| (|kappa| = 2 sin(theta/2)), and
+//                c = w M' / Lbar with M' the band's slope on the branch the return mapping takes
+//                (0 on the plateau; at a straight triple with a previous moment the loading
+//                slope at zero curvature): positive semi-definite always, well defined at a straight
+//                triple where theta's own gradient is not, and the moment's own curvature term
+//                w M d2theta (indefinite) left out.
+// Ghosts enter by the chain rule, as in the gradient: a vector is extended to every ghost by
+// the midpoint rule, and what a ghost receives goes half to each parent (ghost_nodes.hpp).
+//
+// apply() is three loops (ghosts of the vector, triples, particle gather) through the
+// LoopRunner, each writing only its own slots, with per-tile sums: the product has the same
+// bits on every scheduler and thread count.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "kernels/loop_runner.hpp"
+#include "kernels/step_context.hpp"
+
+namespace clothbench::kernels {
+
+class ModelHessian {
+ public:
+  explicit ModelHessian(const ClothMesh& mesh);
+
+  /// Assembles H at the current positions for step length ctx.dt() (edges, triples, then
+  /// particles). `diagonal(s, block)` is called once for every active particle with its full
+  /// 3x3 diagonal block (inertia, contact, every edge and triple touching it; zero for a
+  /// pinned particle), for the preconditioners. Every thread of the region calls it.
+  template <class Diagonal>
+  void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal);
+
+  /// y = H v on the free particles (0 elsewhere); returns v . y. v must be zero on every
+  /// active particle that is not free; its ghost entries are overwritten (midpoints). Uses the
+  /// state's triple_scratch as work space. Every thread of the region calls it.
+  double apply(LoopRunner& run, const StepContext& ctx, std::vector<double>& v,
+               std::vector<double>& y);
+
+  /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
+  [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
+
+  [[nodiscard]] std::size_t memory_bytes() const;
+  /// Bytes per slot (memory estimates).
+  static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2) * sizeof(double);
+
+ private:
+  /// Every thread; per particle: store the inertia block, call diagonal(s, full block).
+  template <class Diagonal>
+  void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal);
+  /// Edge and triple coefficients at the current positions (two loops).
+  void assemble_elements(LoopRunner& run, const StepContext& ctx);
+  /// The full diagonal block of particle s without inertia and contact: edges and triples.
+  [[nodiscard]] Eigen::Matrix3d element_diagonal(const StepContext& ctx, std::int64_t s) const;
+
+  std::vector<double> inertia_;  ///< 6 per slot: m / dt^2 I + contact k n n^T
+  std::vector<double> edge_;     ///< 2 per element id: alpha, beta
+  std::vector<double> bending_;  ///< 1 per element id: c
+  TilePartials<ScalarSum> dot_partials_;
+};
+
+template <class Diagonal>
+void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal) {
+  assemble_elements(run, ctx);
+  assemble_particles(run, ctx, diagonal);
+}
+
+template <class Diagonal>
+void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx,
+                                      Diagonal& diagonal) {
+  const ClothState& st = ctx.state;
+  const double dt = ctx.dt();
+  run.for_each_prepared(
+      ElementKind::particles,
+      [&](std::int64_t tile) {
+        return ctx.broad_phase() ? ctx.tile_contacts(tile, st.position).mask : kEveryObstacle;
+      },
+      [&](std::int64_t s, ObstacleMask mask) {
+        if (!ctx.is_free(s)) {
+          store_symmetric(inertia_, s, Eigen::Matrix3d::Zero());
+          diagonal(s, Eigen::Matrix3d::Zero());
+          return;
+        }
+        const Eigen::Matrix3d own =
+            Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
+            contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness;
+        store_symmetric(inertia_, s, own);
+        diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
+      });
+}
+
+}  // namespace clothbench::kernels

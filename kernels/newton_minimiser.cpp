@@ -1,0 +1,82 @@
+// Truncated Newton with an Eisenstat-Walker forcing term (see header).
+#include "kernels/newton_minimiser.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "kernels/line_search.hpp"
+
+namespace clothbench::kernels {
+
+MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& run,
+                                     const NewtonSettings& settings, double dt,
+                                     bool (*stop_requested)(void*), void* stop_state) {
+  MinimiserReport report;
+  objective.set_step_length(dt);
+  objective.begin_step(run);  // initial guess; assembles the model there
+  Evaluation current = objective.evaluate(run);
+  report.evaluations = 1;
+  report.initial = current;
+  if (settings.record_values) report.values.push_back(current.value);
+  MinimiserSettings search;
+  search.max_line_search = settings.max_line_search;
+  search.armijo = settings.armijo;
+  search.curvature = settings.curvature;
+  // Weighted residual norms |g|_W = sqrt(cost); the outer test is sqrt(cost / N) <= tolerance.
+  double previous_norm = 0.0, forcing = settings.forcing_max;
+  bool assembled = true;
+  while (true) {
+    if (MinimiserReport::rms(current) <= settings.tolerance) {
+      report.reason = StopReason::converged;
+      break;
+    }
+    if (report.iterations >= settings.max_newton_iterations) {
+      report.reason = StopReason::iteration_cap;
+      break;
+    }
+    if (stop_requested != nullptr && stop_requested(stop_state)) {
+      report.reason = StopReason::time_budget;
+      break;
+    }
+    if (!assembled) objective.refresh_preconditioner(run);
+    assembled = false;
+    const double norm = std::sqrt(current.cost);
+    if (report.iterations > 0) {
+      // Eisenstat-Walker choice 2 with its safeguard against a sudden drop of the forcing term.
+      const double ratio = norm / previous_norm;
+      double next = settings.forcing_gamma * ratio * ratio;
+      const double from_previous = settings.forcing_gamma * forcing * forcing;
+      if (from_previous > 0.1) next = std::max(next, from_previous);
+      forcing = std::min(settings.forcing_max, next);
+    }
+    // No need to solve far below what the outer test asks: half its residual at most.
+    const double needed =
+        0.5 * settings.tolerance * std::sqrt(static_cast<double>(current.free_particles)) / norm;
+    forcing = std::min(settings.forcing_max, std::max(forcing, needed));
+    const LinearSolveReport linear =
+        objective.solve_newton_direction(run, forcing, settings.max_linear_iterations);
+    report.linear_iterations += linear.iterations;
+    if (!linear.positive) ++report.restarts;
+    if (!(linear.slope < 0.0)) {
+      report.reason = StopReason::no_descent;
+      break;
+    }
+    const LineSearchResult ls = line_search(objective, run, search, current.value, linear.slope, 1.0);
+    report.evaluations += ls.evaluations;
+    if (!ls.accepted) {
+      objective.move(run, -ls.end_alpha);
+      current = objective.evaluate(run);
+      ++report.evaluations;
+      report.reason = StopReason::line_search_stalled;
+      break;
+    }
+    previous_norm = norm;
+    current = ls.at;
+    if (settings.record_values) report.values.push_back(current.value);
+    ++report.iterations;
+  }
+  report.final = current;
+  return report;
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,133 @@
+// The potential formulation's Newton system (see potential_objective.hpp and model_hessian.hpp):
+// assembly of the model Hessian with its preconditioner, and the inner linear PCG that solves
+// H p = -g inexactly. Every loop runs through the LoopRunner with per-tile sums.
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+
+#include "kernels/potential_objective.hpp"
+
+namespace clothbench::kernels {
+
+void PotentialObjective::assemble_newton(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  LinePreconditioner* lines = lines_.get();
+  const Preconditioner kind = ctx_.config.solver.preconditioner;
+  // Without a preconditioner the unknowns are positions in units of the finest spacing h.
+  const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
+  newton_->hessian.assemble(run, ctx_, [&](std::int64_t s, const Eigen::Matrix3d& block) {
+    if (lines != nullptr) store_symmetric(lines->diagonal_block, s, block);
+    Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+    if (ctx_.is_free(s)) {
+      inverse = kind == Preconditioner::none ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h))
+                                             : Eigen::Matrix3d(block.inverse());
+    }
+    store_symmetric(st.preconditioner, s, inverse);
+  });
+  if (lines == nullptr) return;
+  const ModelHessian& hessian = newton_->hessian;
+  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+    store_symmetric(lines->edge_block, id, hessian.edge_block(ctx_, id));
+  });
+  lines->factor(run, ctx_);
+}
+
+LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, double forcing,
+                                                             int max_iterations) {
+  ClothState& st = ctx_.state;
+  NewtonSystem& ns = *newton_;
+  const ClothMesh& mesh = ctx_.mesh;
+  LinePreconditioner* lines = lines_.get();
+  const double g_ref = ctx_.gravity_reference();
+  auto weight = [&](std::int64_t s) {
+    const double mg = mesh.mass[s] * g_ref;
+    return 1.0 / (mg * mg);
+  };
+  LinearSolveReport report;
+
+  // x = 0, r = -g on the free particles.
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    vec3(st.direction, s).setZero();
+    vec3(ns.residual, s) = ctx_.is_free(s) ? Eigen::Vector3d(-vec3(st.gradient, s))
+                                            : Eigen::Vector3d::Zero();
+  });
+  // z = M^-1 r (into `product`) with the sums r . z and |r|_W^2. Block Jacobi is computed in
+  // the same loop as the sums; line solves first solve every line.
+  auto precondition_residual = [&]() {
+    if (lines != nullptr) lines->apply(run, ctx_, ns.residual, ns.product);
+    run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
+                          [&](std::int64_t s, PcgSums& acc) {
+                            auto z = vec3(ns.product, s);
+                            if (!ctx_.is_free(s)) {
+                              z.setZero();
+                              return;
+                            }
+                            const Eigen::Vector3d r = vec3(ns.residual, s);
+                            if (lines == nullptr) z = apply_symmetric(st.preconditioner, s, r);
+                            acc.rz += r.dot(z);
+                            acc.weighted += r.squaredNorm() * weight(s);
+                          });
+    return run.reduce(ns.partials);
+  };
+  PcgSums sums = precondition_residual();
+  const double norm0 = std::sqrt(sums.weighted);
+  if (!(norm0 > 0.0)) {
+    report.converged = true;
+    report.relative_residual = 0.0;
+    return report;
+  }
+  const double target = forcing * norm0;
+  double rz = sums.rz;
+  run.for_each(ElementKind::particles,
+               [&](std::int64_t s) { vec3(ns.search, s) = vec3(ns.product, s); });
+
+  while (report.iterations < max_iterations) {
+    const double pq = ns.hessian.apply(run, ctx_, ns.search, ns.product);  // product = H p
+    if (!(pq > 0.0) || !std::isfinite(pq) || !(rz > 0.0)) {
+      report.positive = false;
+      break;
+    }
+    const double alpha = rz / pq;
+    ++report.iterations;
+    const bool fused = lines == nullptr;
+    run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
+                          [&](std::int64_t s, PcgSums& acc) {
+                            if (!ctx_.is_free(s)) return;
+                            vec3(st.direction, s) += alpha * vec3(ns.search, s);
+                            auto r = vec3(ns.residual, s);
+                            r -= alpha * vec3(ns.product, s);
+                            acc.weighted += r.squaredNorm() * weight(s);
+                            if (fused) {
+                              auto z = vec3(ns.product, s);
+                              z = apply_symmetric(st.preconditioner, s, r);
+                              acc.rz += r.dot(z);
+                            }
+                          });
+    sums = run.reduce(ns.partials);
+    report.relative_residual = std::sqrt(sums.weighted) / norm0;
+    if (std::sqrt(sums.weighted) <= target) {
+      report.converged = true;
+      break;
+    }
+    if (report.iterations >= max_iterations) break;
+    if (!fused) sums = precondition_residual();
+    const double beta = sums.rz / rz;
+    rz = sums.rz;
+    run.for_each(ElementKind::particles, [&](std::int64_t s) {
+      auto p = vec3(ns.search, s);
+      p = ctx_.is_free(s) ? Eigen::Vector3d(vec3(ns.product, s) + beta * p) : Eigen::Vector3d::Zero();
+    });
+  }
+  if (report.iterations == 0) {
+    // H was not positive on the first direction: fall back to the preconditioned gradient.
+    run.for_each(ElementKind::particles,
+                 [&](std::int64_t s) { vec3(st.direction, s) = vec3(ns.search, s); });
+  }
+  run.for_each<PcgSums>(ElementKind::particles, &ns.partials, [&](std::int64_t s, PcgSums& acc) {
+    acc.slope += vec3(st.gradient, s).dot(vec3(st.direction, s));
+  });
+  report.slope = run.reduce(ns.partials).slope;
+  return report;
+}
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,86 @@
+// The string forms of the configuration's choices and the one check of their combinations
+// (see simulation_config.hpp).
+#include "kernels/simulation_config.hpp"
+
+#include <array>
+#include <utility>
+
+namespace clothbench::kernels {
+
+namespace {
+
+constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
+    {StepMethod::nonlinear_cg, "nonlinear-cg"},
+    {StepMethod::newton, "newton"},
+}};
+constexpr std::array<std::pair<Preconditioner, const char*>, 3> kPreconditioners{{
+    {Preconditioner::none, "none"},
+    {Preconditioner::block_jacobi, "block-jacobi"},
+    {Preconditioner::line_solves, "line-solves"},
+}};
+
+template <class Table, class Enum>
+const char* name_of(const Table& table, Enum value) {
+  for (const auto& [v, name] : table) {
+    if (v == value) return name;
+  }
+  return "?";
+}
+template <class Table>
+auto value_of(const Table& table, std::string_view text)
+    -> std::optional<typename Table::value_type::first_type> {
+  for (const auto& [v, name] : table) {
+    if (text == name) return v;
+  }
+  return std::nullopt;
+}
+template <class Table>
+std::vector<std::string> names_of(const Table& table) {
+  std::vector<std::string> names;
+  for (const auto& entry : table) names.emplace_back(entry.second);
+  return names;
+}
+
+}  // namespace
+
+const char* to_string(StepMethod method) { return name_of(kStepMethods, method); }
+const char* to_string(Preconditioner preconditioner) {
+  return name_of(kPreconditioners, preconditioner);
+}
+std::optional<StepMethod> step_method_from_string(std::string_view text) {
+  return value_of(kStepMethods, text);
+}
+std::optional<Preconditioner> preconditioner_from_string(std::string_view text) {
+  return value_of(kPreconditioners, text);
+}
+std::vector<std::string> step_method_names() { return names_of(kStepMethods); }
+std::vector<std::string> preconditioner_names() { return names_of(kPreconditioners); }
+
+std::vector<ConfigProblem> validate(const SimulationConfig& config) {
+  std::vector<ConfigProblem> problems;
+  const SolverConfig& solver = config.solver;
+  const bool violation = solver.formulation == Formulation::violation;
+  if (violation && solver.method == StepMethod::newton) {
+    problems.push_back({"solver.method", "solver.formulation",
+                        "Newton's method is implemented for the potential formulation only (the "
+                        "violation formulation is a least-squares problem in positions and forces)",
+                        "expected method = \"nonlinear-cg\" with formulation = \"violation\", or "
+                        "formulation = \"potential\""});
+  }
+  if (violation && solver.preconditioner == Preconditioner::line_solves) {
+    problems.push_back({"solver.preconditioner", "solver.formulation",
+                        "the line-solve preconditioner is implemented for the potential "
+                        "formulation only",
+                        "expected preconditioner = \"block-jacobi\" or \"none\" with formulation "
+                        "= \"violation\", or formulation = \"potential\""});
+  }
+  if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
+    problems.push_back({"solver.gradient", "amrc.enabled",
+                        "the numeric gradient of the violation formulation is not available with "
+                        "[amrc] enabled = true (ghost particles)",
+                        "expected gradient = \"analytic\", formulation = \"potential\" or AMRC off"});
+  }
+  return problems;
+}
+
+}  // namespace clothbench::kernels

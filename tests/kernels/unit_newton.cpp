@@ -1,0 +1,290 @@
+// The Newton step solver (kernels/model_hessian.hpp, newton_minimiser.hpp): the model Hessian
+// is the exact second derivative of Phi where the model is exact, symmetric and positive
+// definite everywhere (ghosts included); Newton reaches the state nonlinear CG reaches; and
+// damping is a rate, so halving the step does not add damping.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "kernel_fixtures.hpp"
+#include "kernels/potential_objective.hpp"
+
+namespace clothbench {
+namespace {
+
+using kernels::Preconditioner;
+using kernels::StepMethod;
+
+/// The model Hessian of a Simulation's state, through a PotentialObjective of its own.
+struct ModelFixture {
+  explicit ModelFixture(const kernels::SimulationConfig& config)
+      : sim(config),
+        ctx{sim.mesh(), sim.material(), sim.obstacles(), sim.config(), sim.state()},
+        objective(ctx) {}
+  template <class F>
+  void run(F&& f) {
+    schedulers::OmpStaticDriver driver;
+    kernels::LoopRunner r(driver, sim.mesh(), nullptr, kernels::Instrumentation::off, nullptr);
+    f(r);
+  }
+  /// Ghosts on their midpoints, the per-step constants, then H at the current positions.
+  void assemble() {
+    schedulers::OmpStaticDriver driver;
+    (void)sim.evaluate(driver, true);
+    run([&](kernels::LoopRunner& r) {
+      objective.prepare_history(r);
+      objective.refresh_preconditioner(r);
+    });
+  }
+  std::vector<double> product(std::vector<double> v) {
+    std::vector<double> y(v.size(), 0.0);
+    run([&](kernels::LoopRunner& r) { (void)objective.model_hessian()->apply(r, ctx, v, y); });
+    return y;
+  }
+  /// The analytic gradient at the current positions.
+  std::vector<double> gradient() {
+    schedulers::OmpStaticDriver driver;
+    (void)sim.evaluate(driver, true);
+    return sim.state().gradient;
+  }
+  kernels::Simulation sim;
+  kernels::StepContext ctx;
+  kernels::PotentialObjective objective;
+};
+
+kernels::SimulationConfig newton_config(kernels::SimulationConfig c) {
+  c.solver.method = StepMethod::newton;
+  return c;
+}
+
+/// A flat n x n sheet stretched by 2 % in both directions with two pinned corners: every edge
+/// on its loading branch, every triple straight, no obstacle.
+kernels::SimulationConfig stretched_flat_sheet(int n) {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = c.cloth.particles_j = n;
+  c.cloth.block_size = 4;
+  c.cloth.size_i = c.cloth.size_j = 0.1;
+  c.cloth.origin = {-0.05, -0.05, 0.0};
+  c.cloth.pinned = {{0, 0}, {n - 1, n - 1}};
+  c.cloth.initial_stretch = 0.02;
+  c.time.step = 0.004;
+  return newton_config(c);
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
+  return sum;
+}
+
+std::vector<double> random_free_vector(const kernels::Simulation& sim, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<double> v(sim.state().position.size(), 0.0);
+  const kernels::StepContext ctx{sim.mesh(), sim.material(), sim.obstacles(), sim.config(),
+                                 const_cast<kernels::ClothState&>(sim.state())};
+  for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
+    if (!ctx.is_free(s)) continue;
+    for (int k = 0; k < 3; ++k) v[3 * s + k] = unit(rng);
+  }
+  return v;
+}
+
+/// Largest difference between the model's 3x3 blocks and central differences of the analytic
+/// gradient, relative to each column's diagonal entry (at least 1 N/m), over every column.
+double worst_block_difference(ModelFixture& f) {
+  kernels::ClothState& st = f.sim.state();
+  const std::vector<double> x0 = st.position;
+  const double h = 1e-8;  // m, against a spacing of 1.7 cm
+  double worst = 0.0;
+  for (std::int64_t s = 0; s < f.sim.mesh().slot_count(); ++s) {
+    if (!f.ctx.is_free(s)) continue;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> unit(x0.size(), 0.0);
+      unit[3 * s + k] = 1.0;
+      const std::vector<double> model = f.product(unit);
+      st.position = x0;
+      st.position[3 * s + k] += h;
+      const std::vector<double> plus = f.gradient();
+      st.position = x0;
+      st.position[3 * s + k] -= h;
+      const std::vector<double> minus = f.gradient();
+      st.position = x0;
+      const double scale = std::max(1.0, std::abs(model[3 * s + k]));
+      for (std::int64_t r = 0; r < f.sim.mesh().slot_count(); ++r) {
+        if (!f.ctx.is_free(r)) continue;
+        Eigen::Vector3d numeric, analytic;
+        for (int c = 0; c < 3; ++c) {
+          numeric[c] = (plus[3 * r + c] - minus[3 * r + c]) / (2.0 * h);
+          analytic[c] = model[3 * r + c];
+        }
+        worst = std::max(worst, (numeric - analytic).norm() / scale);
+      }
+    }
+  }
+  return worst;
+}
+
+TEST(ModelHessian, EqualsTheFiniteDifferenceJacobianOfTheGradientWhereTheModelIsExact) {
+  // Edges in tension on their loading branch; triples straight, first with no previous moment
+  // (the bending plateau: no bending stiffness), then with one (the loading branch as soon as
+  // they bend: the Gauss-Newton term is the exact second derivative at zero curvature).
+  for (bool bent_before : {false, true}) {
+    ModelFixture f(stretched_flat_sheet(7));
+    kernels::ClothState& st = f.sim.state();
+    if (bent_before) {
+      for (double& m : st.triple_moment) m = 2.0 * f.sim.material().bending[0].hb;
+    }
+    f.assemble();
+    st.target = st.position;  // the inertia term's Hessian does not depend on x~
+    const std::vector<double> e_z = [&] {
+      std::vector<double> v(st.position.size(), 0.0);
+      v[3 * f.sim.mesh().slot(3, 3) + 2] = 1.0;
+      return v;
+    }();
+    const double out_of_plane = f.product(e_z)[3 * f.sim.mesh().slot(3, 3) + 2];
+    const double inertia = f.sim.mesh().mass[f.sim.mesh().slot(3, 3)] / (0.004 * 0.004);
+    if (bent_before) {
+      EXPECT_GT(out_of_plane, 1.5 * inertia) << "bending stiffness is in the model";
+    }
+    EXPECT_LT(worst_block_difference(f), 1e-6) << (bent_before ? "loading" : "plateau");
+  }
+}
+
+TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
+  kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
+  c.cloth.particles_i = 9;
+  c.cloth.particles_j = 9;
+  c.amrc.enabled = true;
+  c.amrc.levels = 2;
+  for (unsigned seed : {1u, 2u, 3u}) {
+    ModelFixture f(c);
+    // Coarse cells beside fine ones: ghosts on the shared sides.
+    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
+    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
+    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
+    f.sim.end_tree_edit();
+    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
+    testing::randomise_state(f.sim, seed);
+    f.assemble();
+    for (unsigned k = 0; k < 4; ++k) {
+      const std::vector<double> x = random_free_vector(f.sim, 10 * seed + k);
+      const std::vector<double> y = random_free_vector(f.sim, 100 * seed + k);
+      const std::vector<double> hx = f.product(x), hy = f.product(y);
+      const double xhy = dot(x, hy), yhx = dot(y, hx);
+      EXPECT_NEAR(xhy, yhx, 1e-12 * std::sqrt(dot(x, hx) * dot(y, hy))) << "seed " << seed;
+      EXPECT_GT(dot(x, hx), 0.0) << "seed " << seed;
+    }
+  }
+}
+
+/// A 13 x 13 cloth falling onto a sphere and a box from 3 mm above them.
+kernels::SimulationConfig small_drape() {
+  kernels::SimulationConfig c = testing::small_cloth(true, false);
+  c.cloth.particles_i = c.cloth.particles_j = 13;
+  c.cloth.initial_crumple = 0.0;
+  c.cloth.origin = {-0.1, -0.1, 0.0065};  // 3 mm above the sphere: contact from step 5
+  c.time.step = 0.004;
+  c.solver.tolerance = 1e-5;
+  c.solver.max_iterations = 3000;
+  c.solver.max_newton_iterations = 60;
+  c.solver.max_linear_iterations = 500;
+  c.solver.reject_residual = 1e300;
+  return c;
+}
+
+TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
+  kernels::SimulationConfig cg = small_drape();
+  kernels::SimulationConfig newton = newton_config(cg);
+  for (Preconditioner p : {Preconditioner::block_jacobi, Preconditioner::line_solves}) {
+    cg.solver.preconditioner = newton.solver.preconditioner = p;
+    kernels::Simulation a(cg), b(newton);
+    schedulers::OmpStaticDriver driver;
+    int newton_iterations = 0, linear_iterations = 0;
+    for (int step = 0; step < 10; ++step) {
+      const kernels::StepReport ra = a.step(driver), rb = b.step(driver);
+      // Nonlinear CG's line search can stall a little above the tolerance at contact onset.
+      EXPECT_LE(kernels::MinimiserReport::rms(ra.minimiser.final), 1e-3) << "CG step " << ra.step;
+      EXPECT_EQ(rb.minimiser.reason, kernels::StopReason::converged) << "Newton step " << rb.step;
+      EXPECT_LE(kernels::MinimiserReport::rms(rb.minimiser.final), cg.solver.tolerance);
+      newton_iterations += rb.minimiser.iterations;
+      linear_iterations += rb.minimiser.linear_iterations;
+    }
+    EXPECT_GT(newton_iterations, 0);
+    EXPECT_GE(linear_iterations, newton_iterations);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < a.state().position.size(); ++i) {
+      worst = std::max(worst, std::abs(a.state().position[i] - b.state().position[i]));
+    }
+    // Residuals of 1e-5 (Newton) to 1e-3 (CG) weights put a particle off the minimiser by
+    // about r m g / (m / dt^2) <= 2e-7 m: far below the millimetres the cloth moved.
+    EXPECT_LT(worst, 1e-6) << "m, preconditioner " << kernels::to_string(p);
+    EXPECT_GT(std::abs(a.state().position[2] - cg.cloth.origin.z()), 1e-3) << "the cloth moved";
+    EXPECT_GT(a.diagnostics().contact_support, 0.0) << "and touches the obstacles";
+  }
+}
+
+/// A free-falling 5 x 5 cloth (no obstacle, no strain) with steps of dt and the damping of
+/// 0.1 per 4 ms written for that step (the scene's damping is per step of its own length).
+kernels::SimulationConfig damped_fall(double dt, StepMethod method) {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = c.cloth.particles_j = 5;
+  c.cloth.block_size = 5;
+  c.cloth.size_i = c.cloth.size_j = 0.1;
+  c.time.step = dt;
+  c.time.damping = 1.0 - std::pow(0.9, dt / 0.004);
+  c.solver.method = method;
+  c.solver.tolerance = 1e-9;
+  c.solver.max_iterations = 200;
+  return c;
+}
+
+/// Where particle (2, 2) is after `seconds` of steps of `dt`, and its vertical velocity (the
+/// last step's displacement over dt).
+struct Fall {
+  double velocity = 0.0;
+  double height = 0.0;
+};
+Fall fall(kernels::SimulationConfig c, double seconds, int halvings = 0) {
+  if (halvings > 0) {  // every step rejected and redone as halves, `halvings` times
+    c.solver.reject_residual = -1.0;
+    c.solver.max_step_halvings = halvings;
+  }
+  kernels::Simulation sim(c);
+  schedulers::OmpStaticDriver driver;
+  const int steps = static_cast<int>(std::lround(seconds / c.time.step));
+  const std::int64_t s = sim.mesh().slot(2, 2);
+  double before = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    before = sim.state().position[3 * s + 2];
+    const kernels::StepReport r = sim.step(driver);
+    EXPECT_EQ(r.sub_steps, 1 << halvings);
+  }
+  return {(sim.state().position[3 * s + 2] - before) / c.time.step, sim.state().position[3 * s + 2]};
+}
+
+TEST(Damping, IsARateSoHalvingTheStepDoesNotAddDamping) {
+  for (StepMethod method : {StepMethod::nonlinear_cg, StepMethod::newton}) {
+    const Fall coarse_fall = fall(damped_fall(0.004, method), 0.1);
+    const Fall fine_fall = fall(damped_fall(0.002, method), 0.1);
+    const double coarse = coarse_fall.velocity, fine = fine_fall.velocity;
+    // v' = g - lambda v with lambda = -ln(0.9) / 4 ms: after 0.1 s close to g / lambda.
+    const double lambda = -std::log(0.9) / 0.004, g = 9.80665;
+    const double exact = -g / lambda * (1.0 - std::exp(-lambda * 0.1));
+    // Backward Euler's error is O(lambda dt): a few per cent here, and halving dt halves it.
+    EXPECT_NEAR(coarse, exact, 0.08 * std::abs(exact));
+    EXPECT_NEAR(fine, exact, 0.04 * std::abs(exact));
+    EXPECT_LT(std::abs(fine - exact), std::abs(coarse - exact));
+    // Had a halved step been damped as a whole one (0.9 per 2 ms), the fine velocity would be
+    // about half the coarse one.
+    EXPECT_LT(std::abs(fine - coarse), 0.05 * std::abs(coarse));
+    // Steps rejected and redone as two halves move exactly like steps of half the length.
+    const Fall halved = fall(damped_fall(0.004, method), 0.1, 1);
+    EXPECT_NEAR(halved.height, fine_fall.height, 1e-9) << "m";
+    EXPECT_GT(std::abs(coarse_fall.height - fine_fall.height), 1e-5) << "m: dt matters";
+  }
+}
+
+}  // namespace
+}  // namespace clothbench
