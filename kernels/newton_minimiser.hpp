@@ -14,7 +14,7 @@ namespace clothbench::kernels {
 /// Settings of one Newton minimisation.
 struct NewtonSettings {
   double tolerance = 1e-3;        ///< stop when sqrt(cost / free particles) <= tolerance
-  int max_newton_iterations = 30;
+  int max_newton_iterations = 100;
   int max_linear_iterations = 300;  ///< PCG iterations per Newton iteration
   double forcing_max = 0.5;       ///< largest (first) relative residual asked of the inner solve
   double forcing_gamma = 0.9;     ///< Eisenstat-Walker choice 2: eta = gamma (|g_k| / |g_k-1|)^2

@@ -119,7 +119,7 @@ struct SolverConfig {
   /// Nonlinear CG: iterations per step.
   int max_iterations = 200;
   /// Newton: Newton iterations per step, and linear PCG iterations per Newton iteration.
-  int max_newton_iterations = 30;
+  int max_newton_iterations = 100;
   int max_linear_iterations = 300;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
