@@ -150,7 +150,8 @@ void check_accepted(const harness::Scene& scene) {
   for (const kernels::SceneEvent& e : s.events) {
     require(e.step >= 1 && e.step <= e.until_step && e.until_step <= scene.steps,
             "event steps: 1 <= step <= until_step <= steps");
-    require(finite(e.displacement) && finite(e.velocity) && finite(e.force), "event vectors finite");
+    require(finite(e.displacement) && finite(e.velocity) && finite(e.force),
+            "event vectors finite");
     if (e.kind == kernels::SceneEventKind::move_obstacle) {
       require(e.obstacle >= 0 && e.obstacle < static_cast<int>(s.obstacles.size()),
               "event obstacle index");
@@ -212,10 +213,13 @@ void fuzz_presets(std::string_view text) {
 // At exit under CLOTHBENCH_FUZZ_SIMULATION=1: how many scenes reached the kernel; none is a
 // failure (exit 1), so a run that never exercised the check cannot pass as if it had.
 void report_simulations() {
-  std::fprintf(stderr, "fuzz_scene: CLOTHBENCH_FUZZ_SIMULATION=1: %lld accepted scenes built "
-               "into a kernels::Simulation\n", simulations_built);
+  std::fprintf(stderr,
+               "fuzz_scene: CLOTHBENCH_FUZZ_SIMULATION=1: %lld accepted scenes built "
+               "into a kernels::Simulation\n",
+               simulations_built);
   if (simulations_built == 0) {
-    std::fprintf(stderr, "fuzz_scene: FAILED: no accepted scene of at most 4096 particles was "
+    std::fprintf(stderr,
+                 "fuzz_scene: FAILED: no accepted scene of at most 4096 particles was "
                  "built, so the loader-versus-kernel check did not run\n");
     std::fflush(stderr);
     std::_Exit(1);
