@@ -11,7 +11,8 @@
 //  - `run --gradient numeric` reaches the kernel (header, summary.json, a result near but not
 //    bitwise the analytic one) and a bad value is refused naming --gradient;
 //  - `experiment time-error --scene FILE` runs on that scene (its path, size and step count in
-//    time_error.json), and the other experiments refuse --scene.
+//    time_error.json; tests/data/scenes/time-error-tiny.toml), and the other experiments refuse
+//    --scene.
 // No timing is asserted.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -42,6 +43,8 @@ using nlohmann::json;
 using testing::HasSubstr;
 
 const fs::path kScene = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
+const fs::path kTimeErrorScene =
+    fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/time-error-tiny.toml";
 
 /// A sweep of the tiny scene over 2 steps, one run per row, no warm-up, with `options`.
 Outcome tiny_sweep(const fs::path& out, const std::string& options) {
@@ -301,30 +304,31 @@ TEST_F(CommandOptions, RunGradientNumericReachesTheKernel) {
 
 TEST_F(CommandOptions, ExperimentTimeErrorRunsOnTheGivenScene) {
   const fs::path out = fresh_dir("experiment-scene");
-  // The scene's own step count (4) is used: no --steps.
+  // 9 x 9 particles, 3 steps (the tiny size's own base: 21 x 21, 40 steps). The scene's own
+  // step count is used: no --steps.
   const Outcome o =
       run("experiment time-error --size tiny --threads 1 --quiet --no-plots --scene " +
-          quote(kScene.string()) + " --out " + quote(out.string()));
+          quote(kTimeErrorScene.string()) + " --out " + quote(out.string()));
   ASSERT_EQ(o.exit_code, 0) << o.output;
   EXPECT_THAT(o.output, HasSubstr("Verification: PASSED"));
   const fs::path dir = out / "time-error-tiny";
   const json d = read_json(dir / "time_error.json");
-  EXPECT_EQ(fs::path(d["base_scene"].get<std::string>()), kScene);
-  EXPECT_EQ(d["steps"], 4);
-  EXPECT_EQ(d["base_particles"], 21);
+  EXPECT_EQ(fs::path(d["base_scene"].get<std::string>()), kTimeErrorScene);
+  EXPECT_EQ(d["steps"], 3);
+  EXPECT_EQ(d["base_particles"], 9);
   const json* base = nullptr;
   for (const json& r : d["runs"]) {
     if (r["label"] == "base") base = &r;
     EXPECT_TRUE(r["passed"].get<bool>()) << r.dump();
   }
   ASSERT_NE(base, nullptr);
-  EXPECT_EQ(base->at("particles_start"), 21 * 21);
-  EXPECT_THAT(read_text(dir / "time_error.md"), HasSubstr(kScene.string()));
+  EXPECT_EQ(base->at("particles_start"), 9 * 9);
+  EXPECT_THAT(read_text(dir / "time_error.md"), HasSubstr(kTimeErrorScene.string()));
   fs::remove_all(out);
 
   // The other experiments run their own scenes: --scene is refused, not ignored.
   const Outcome refused = run("experiment table1 --size tiny --quiet --no-plots --scene " +
-                              quote(kScene.string()) + " --out " + quote(out.string()));
+                              quote(kTimeErrorScene.string()) + " --out " + quote(out.string()));
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
   EXPECT_THAT(refused.output, HasSubstr("--scene"));
   EXPECT_FALSE(fs::exists(out / "table1-tiny"));
