@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
                                "Allow more threads than hardware PUs");
   auto* experiment_scene_option =
       experiment_command
-          ->add_option("--scene", experiment_scene, "time-error: base scene (default: Table 1's finer)")
+          ->add_option("--scene", experiment_scene, "time-error only: base scene (default: Table 1's finer)")
           ->check(CLI::ExistingFile);
   auto* experiment_steps_option =
       experiment_command->add_option("--steps", experiment_steps, "Override every scene's step count")
@@ -247,6 +247,13 @@ int main(int argc, char** argv) {
     }
     if (*experiment_command) {
       experiment.size = clothbench::harness::parse_experiment_size(experiment_size, "--size");
+      if (*experiment_scene_option && experiment.name != "time-error") {
+        std::fprintf(stderr,
+                     "clothbench experiment: --scene: only time-error takes a base scene (%s "
+                     "runs its own scenes)\n",
+                     experiment.name.c_str());
+        return kExitBadInput;
+      }
       if (*experiment_scene_option) experiment.scene = experiment_scene;
       if (*experiment_steps_option) experiment.steps = experiment_steps;
       experiment.plots = !experiment_no_plots;

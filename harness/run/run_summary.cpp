@@ -217,7 +217,11 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
       {"average_minimised_cost", num(s.average_minimised_cost)},
-      {"solver", {{"method", s.method},
+      {"solver", {{"formulation", scene.simulation.solver.formulation == kernels::Formulation::violation
+                                      ? "violation" : "potential"},
+                  {"gradient", scene.simulation.solver.gradient == kernels::GradientMode::numeric
+                                   ? "numeric" : "analytic"},
+                  {"method", s.method},
                   {"preconditioner", kernels::to_string(scene.simulation.solver.preconditioner)}}},
       {"cg_iterations", s.total_iterations},
       {"linear_iterations", s.total_linear_iterations},

@@ -9,7 +9,11 @@
 //    since the kernel and the run harness rely on those without checking again.
 // With CLOTHBENCH_FUZZ_SIMULATION=1 accepted scenes of up to 4096 particles are also built
 // into a kernels::Simulation, and any exception from that is reported as a scene the
-// loader should have refused. scripts/fuzz-check runs this target for a bounded time; its
+// loader should have refused; at exit the target prints how many it built and exits 1 when
+// that is none (the check was asked for but never ran), and a value other than 0 or 1 is
+// refused at start. scripts/fuzz-check runs this target for a bounded time, once as a loader
+// check and once with CLOTHBENCH_FUZZ_SIMULATION=1; the Clang suite replays the seeds both
+// ways (tests/fuzz/CMakeLists.txt). Its
 // -rss_limit_mb also caps single allocations, so a scene that makes the loader allocate
 // in proportion to its particle count is reported too.
 #include <cmath>
@@ -34,6 +38,7 @@ constexpr std::string_view kSceneName = "fuzz-scene.toml";
 constexpr std::string_view kPresetsName = "fuzz-presets.toml";
 
 bool build_simulations = false;
+long long simulations_built = 0;  // accepted scenes built into a kernels::Simulation
 std::filesystem::path presets_file;
 
 [[noreturn]] void fail(std::string_view what, std::string_view detail) {
@@ -145,7 +150,8 @@ void check_accepted(const harness::Scene& scene) {
   for (const kernels::SceneEvent& e : s.events) {
     require(e.step >= 1 && e.step <= e.until_step && e.until_step <= scene.steps,
             "event steps: 1 <= step <= until_step <= steps");
-    require(finite(e.displacement) && finite(e.velocity) && finite(e.force), "event vectors finite");
+    require(finite(e.displacement) && finite(e.velocity) && finite(e.force),
+            "event vectors finite");
     if (e.kind == kernels::SceneEventKind::move_obstacle) {
       require(e.obstacle >= 0 && e.obstacle < static_cast<int>(s.obstacles.size()),
               "event obstacle index");
@@ -178,6 +184,7 @@ void fuzz_scene(std::string_view text) {
     try {
       const kernels::Simulation simulation(scene.simulation);
       (void)simulation.diagnostics();
+      ++simulations_built;
     } catch (const std::exception& error) {
       fail("the kernel refused a scene the loader accepted", error.what());
     }
@@ -203,11 +210,33 @@ void fuzz_presets(std::string_view text) {
   }
 }
 
+// At exit under CLOTHBENCH_FUZZ_SIMULATION=1: how many scenes reached the kernel; none is a
+// failure (exit 1), so a run that never exercised the check cannot pass as if it had.
+void report_simulations() {
+  std::fprintf(stderr,
+               "fuzz_scene: CLOTHBENCH_FUZZ_SIMULATION=1: %lld accepted scenes built "
+               "into a kernels::Simulation\n",
+               simulations_built);
+  if (simulations_built == 0) {
+    std::fprintf(stderr,
+                 "fuzz_scene: FAILED: no accepted scene of at most 4096 particles was "
+                 "built, so the loader-versus-kernel check did not run\n");
+    std::fflush(stderr);
+    std::_Exit(1);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
   const char* build = std::getenv("CLOTHBENCH_FUZZ_SIMULATION");
-  build_simulations = build != nullptr && std::string_view(build) == "1";
+  const std::string_view value = build == nullptr ? "" : build;
+  if (value != "" && value != "0" && value != "1") {
+    std::fprintf(stderr, "fuzz_scene: CLOTHBENCH_FUZZ_SIMULATION='%s': expected 0 or 1\n", build);
+    std::exit(2);
+  }
+  build_simulations = value == "1";
+  if (build_simulations) std::atexit(report_simulations);
   presets_file =
       std::filesystem::path(CLOTHBENCH_SOURCE_DIR) / "scenarios" / "presets" / "fabrics.toml";
   return 0;

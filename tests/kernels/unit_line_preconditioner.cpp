@@ -1,5 +1,7 @@
-// The line-solve preconditioner (kernels/line_preconditioner.hpp): each direction's solve is
-// the exact inverse of the modelled stiffness on each grid line, the mean of the two is
+// The line-solve preconditioner (kernels/line_preconditioner.hpp): its edge blocks are the
+// stretch term's Hessian (checked against central differences of the analytic edge gradient on
+// the loading, plateau and unloading branches), each direction's solve is the exact inverse of
+// the modelled stiffness on each grid line, the mean of the two is
 // symmetric and positive and zero off the unknowns, and - why it exists - linear CG on the
 // modelled stiffness of a sheet in tension needs several times fewer iterations than with
 // block Jacobi, a gap that widens with the mesh.
@@ -10,6 +12,7 @@
 #include <stdexcept>
 
 #include "kernel_fixtures.hpp"
+#include "kernels/potential_elements.hpp"
 #include "kernels/potential_objective.hpp"
 
 namespace clothbench {
@@ -115,8 +118,7 @@ std::vector<double> model_product(Fixture& f, const std::vector<double>& v,
 /// Iterations of linear preconditioned CG on model_product x = b to a relative residual of
 /// 1e-6, with `precondition` (z = P^-1 r).
 template <class Precondition>
-int linear_cg_iterations(Fixture& f, const std::vector<double>& b,
-                         Precondition&& precondition) {
+int linear_cg_iterations(Fixture& f, const std::vector<double>& b, Precondition&& precondition) {
   std::vector<double> x(b.size(), 0.0), r = b;
   std::vector<double> z = precondition(r), p = z;
   double rz = dot(r, z);
@@ -135,6 +137,112 @@ int linear_cg_iterations(Fixture& f, const std::vector<double>& b,
     rz = rz_new;
   }
   return 20001;
+}
+
+/// Gradient of edge `id`'s stretch energy w L Psi(eps) on its end b (the analytic one the
+/// solver's gather uses: w t / l (x_b - x_a)), with end `moved` (0 = a, 1 = b) shifted by
+/// `shift` and the previous force of the state held fixed.
+Eigen::Vector3d edge_gradient_on_b(const kernels::StepContext& ctx, std::int64_t id, int moved,
+                                   const Eigen::Vector3d& shift) {
+  const std::int64_t a = kernels::element_slot(id), b = ctx.mesh.next[id];
+  const std::int64_t target = moved == 0 ? a : b;
+  auto x = [&](std::int64_t k) -> Eigen::Vector3d {
+    const Eigen::Vector3d xk = kernels::vec3(ctx.state.position, k);
+    return k == target ? Eigen::Vector3d(xk + shift) : xk;
+  };
+  const kernels::EdgeTerm term = kernels::edge_term(ctx, id, x);
+  return term.force_density * (x(b) - x(a));
+}
+
+/// Checks every edge block of the line solves of `config` (a stretched_sheet(9)) against the
+/// finite-difference Hessian of the stretch term.
+void expect_edge_blocks_are_the_stretch_hessian(const kernels::SimulationConfig& config) {
+  // The stiffness the line solves invert couples the ends of edge e by -K_e: K_e must be the
+  // stretch energy's Hessian block d2E/dx_b2 = -d2E/dx_a dx_b. Measured here by central
+  // differences (step 1e-6 of the edge length) of the analytic gradient, on a 9 x 9 sheet
+  // stretched by 2 %, jiggled out of plane so that edges point every way, with each edge's
+  // previous force chosen to put it on the loading branch, the plateau (force held: only
+  // the tension across the edge stiffens it) or the unloading branch.
+  Fixture f(config);
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  kernels::ClothState& st = f.sim.state();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double h = mesh.spacing(0);
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (!f.ctx.is_free(s)) continue;
+    for (int k = 0; k < 3; ++k) st.position[3 * s + k] += 0.005 * h * unit(rng);
+  }
+  int regime_count[3] = {0, 0, 0};
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.edge_active[id]) continue;
+    const double length = (kernels::vec3(st.position, mesh.next[id]) -
+                           kernels::vec3(st.position, kernels::element_slot(id)))
+                              .norm();
+    const double strain = length / mesh.edge_rest[id] - 1.0;
+    ASSERT_GT(strain, 0.0) << "edge " << id << " is not in tension";
+    const kernels::BandCurves c =
+        f.sim.material().tensile[kernels::element_direction(id)].curves(strain);
+    ASSERT_LT(1.01 * c.lower, 0.99 * c.upper) << "edge " << id << ": band too thin";
+    const int regime = static_cast<int>(id % 3);  // 0 loading, 1 plateau, 2 unloading
+    st.edge_force[id] = regime == 0   ? 2.0 * c.upper
+                        : regime == 1 ? 0.5 * (c.lower + c.upper)
+                                      : 0.5 * c.lower;
+    ++regime_count[regime];
+  }
+  f.run([&](kernels::LoopRunner& r) { f.objective.refresh_preconditioner(r); });
+
+  // Relative tolerance of each block against its own norm. The across-edge part (tension / l)
+  // is tens of times smaller than the along-edge part (slope / L) on the loading and unloading
+  // branches, so it is compared on its own, relative to its own size: dropping or mis-scaling
+  // it cannot hide below the along-edge part.
+  constexpr double kTolerance = 1e-6;
+  int checked = 0;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.edge_active[id]) continue;
+    const std::int64_t a = kernels::element_slot(id), b = mesh.next[id];
+    const Eigen::Vector3d e = kernels::vec3(st.position, b) - kernels::vec3(st.position, a);
+    const double step = 1e-6 * e.norm();
+    Eigen::Matrix3d hessian_bb, hessian_ab;  // d2E/dx_b2 and d2E/dx_b dx_a by columns
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d shift = step * Eigen::Vector3d::Unit(k);
+      hessian_bb.col(k) =
+          (edge_gradient_on_b(f.ctx, id, 1, shift) - edge_gradient_on_b(f.ctx, id, 1, -shift)) /
+          (2.0 * step);
+      hessian_ab.col(k) =
+          (edge_gradient_on_b(f.ctx, id, 0, shift) - edge_gradient_on_b(f.ctx, id, 0, -shift)) /
+          (2.0 * step);
+    }
+    const Eigen::Matrix3d block = load(f.lines().edge_block, id);
+    const Eigen::Vector3d u = e.normalized();
+    const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - u * u.transpose();
+    const double along_fd = u.dot(hessian_bb * u);
+    EXPECT_NEAR(u.dot(block * u), along_fd, kTolerance * hessian_bb.norm())
+        << "edge " << id << " (regime " << id % 3 << "): along-edge stiffness";
+    const Eigen::Matrix3d across_fd = across * hessian_bb * across;
+    EXPECT_LE((across * block * across - across_fd).norm(), kTolerance * across_fd.norm())
+        << "edge " << id << " (regime " << id % 3 << "): across-edge stiffness\n"
+        << across * block * across << "\nfinite differences\n"
+        << across_fd;
+    EXPECT_LE((block - hessian_bb).norm(), kTolerance * hessian_bb.norm())
+        << "edge " << id << ": K_e against d2E/dx_b2";
+    EXPECT_LE((block + hessian_ab).norm(), kTolerance * hessian_bb.norm())
+        << "edge " << id << ": -K_e against d2E/dx_a dx_b";
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2 * 9 * 8);
+  for (int regime = 0; regime < 3; ++regime) EXPECT_GT(regime_count[regime], 40);
+}
+
+TEST(LinePreconditioner, EdgeBlocksAreTheStretchHessianByFiniteDifferences) {
+  expect_edge_blocks_are_the_stretch_hessian(stretched_sheet(9));
+}
+
+TEST(LinePreconditioner, NewtonsEdgeBlocksAreTheStretchHessianByFiniteDifferences) {
+  // Under Newton the blocks come from the model Hessian's assembly instead (potential_newton.cpp).
+  kernels::SimulationConfig newton = stretched_sheet(9);
+  newton.solver.method = kernels::StepMethod::newton;
+  expect_edge_blocks_are_the_stretch_hessian(newton);
 }
 
 TEST(LinePreconditioner, EachDirectionSolvesItsLinesExactly) {
@@ -229,9 +337,8 @@ TEST(LinePreconditioner, LinearCgNeedsFarFewerIterationsThanBlockJacobi) {
       }
       return z;
     }));
-    lines.push_back(linear_cg_iterations(f, b, [&](const std::vector<double>& r) {
-      return f.apply(r);
-    }));
+    lines.push_back(
+        linear_cg_iterations(f, b, [&](const std::vector<double>& r) { return f.apply(r); }));
   }
   for (std::size_t k = 0; k < jacobi.size(); ++k) {
     std::printf("linear CG iterations, mesh %d: block Jacobi %d, line solves %d\n", sizes[k],

@@ -1,0 +1,338 @@
+// README features of the command line that no other test runs, each through the real binary on
+// the tiny sweep scene (tests/data/scenes/sweep-tiny.toml, 2 steps: seconds per test):
+//  - `sweep --bind core`: every thread of a row is pinned to its own core, and the settings,
+//    the rows' binding records and table.md say so; `--bind none` leaves every thread on the
+//    same (whole) set; a bad value is refused naming --bind;
+//  - `sweep --instrument chunks`: the overhead columns are filled and chunks are counted (finer
+//    schedules hand out more); `--instrument off`: no accounting, empty overhead columns in
+//    table.md and table.csv, and no overhead figure;
+//  - the sweep's figures (fig12.png, overhead.png, cloth.png) are PNG files of the sizes the
+//    plot scripts set, with real content (when gnuplot is installed; under CI=true it must be);
+//  - `run --gradient numeric` reaches the kernel (header, summary.json, a result near but not
+//    bitwise the analytic one) and a bad value is refused naming --gradient;
+//  - `experiment time-error --scene FILE` runs on that scene (its path, size and step count in
+//    time_error.json; tests/data/scenes/time-error-tiny.toml), and the other experiments refuse
+//    --scene.
+// No timing is asserted.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "tests/harness/clothbench_process.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using clothbench_test::fresh_dir;
+using clothbench_test::Outcome;
+using clothbench_test::quote;
+using clothbench_test::read_json;
+using clothbench_test::read_text;
+using clothbench_test::run;
+using nlohmann::json;
+using testing::HasSubstr;
+
+const fs::path kScene = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
+const fs::path kTimeErrorScene =
+    fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/time-error-tiny.toml";
+
+/// A sweep of the tiny scene over 2 steps, one run per row, no warm-up, with `options`.
+Outcome tiny_sweep(const fs::path& out, const std::string& options) {
+  return run("sweep " + quote(kScene.string()) +
+             " --steps 2 --repeat 1 --warmup-steps 0 --quiet --out " + quote(out.string()) + " " +
+             options);
+}
+
+/// Thread counts of the sweeps: 1 and 2 where the machine has two hardware threads.
+int two_or_fewer() { return std::min(2, clothbench_test::hardware_threads()); }
+
+std::string thread_list() { return two_or_fewer() > 1 ? "1,2" : "1"; }
+
+/// Removes a test's output directory when the test ends (also when it is skipped).
+struct RemoveAtExit {
+  fs::path dir;
+  ~RemoveAtExit() { fs::remove_all(dir); }
+};
+
+bool gnuplot_installed() { return std::system("gnuplot --version > /dev/null 2>&1") == 0; }
+
+/// Without gnuplot the figures are not checked: the test is skipped, or fails under CI=true
+/// (scripts/setup installs gnuplot, so CI must check them).
+#define SKIP_WITHOUT_GNUPLOT()                                                                   \
+  do {                                                                                           \
+    if (!gnuplot_installed()) {                                                                  \
+      const char* ci = std::getenv("CI");                                                        \
+      if (ci != nullptr && std::string(ci) == "true") FAIL() << "gnuplot missing under CI=true"; \
+      GTEST_SKIP() << "gnuplot is not installed: no figures to check";                           \
+    }                                                                                            \
+  } while (false)
+
+struct PngHeader {
+  bool signature = false;  ///< the 8-byte PNG signature, then an IHDR chunk
+  std::uint32_t width = 0, height = 0;
+};
+
+std::uint32_t big_endian(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         std::uint32_t{p[3]};
+}
+
+/// The signature and IHDR size of a PNG file (all false / 0 when it is not one).
+PngHeader read_png_header(const fs::path& file) {
+  unsigned char bytes[24] = {};
+  std::ifstream in(file, std::ios::binary);
+  in.read(reinterpret_cast<char*>(bytes), sizeof bytes);
+  PngHeader h;
+  const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (in.gcount() != sizeof bytes || !std::equal(signature, signature + 8, bytes) ||
+      std::string(reinterpret_cast<const char*>(bytes + 12), 4) != "IHDR") {
+    return h;
+  }
+  h.signature = true;
+  h.width = big_endian(bytes + 16);
+  h.height = big_endian(bytes + 20);
+  return h;
+}
+
+/// `name` in `dir` is a PNG of width x height with real content: a pngcairo image of that size
+/// holding only axes and titles is 6-13 kB (measured with gnuplot 5.4); these figures are
+/// 30-100 kB.
+/// With `output` (the sweep's, not --quiet), the sweep also said it wrote the file.
+void expect_figure(const fs::path& dir, const std::string& name, std::uint32_t width,
+                   std::uint32_t height, const std::string& output) {
+  const fs::path file = dir / name;
+  ASSERT_TRUE(fs::exists(file)) << name << " missing\n" << output;
+  const PngHeader h = read_png_header(file);
+  EXPECT_TRUE(h.signature) << name << " is not a PNG file";
+  EXPECT_EQ(h.width, width) << name;
+  EXPECT_EQ(h.height, height) << name;
+  EXPECT_GT(fs::file_size(file), 20'000u) << name << ": too small for a drawn figure";
+  if (!output.empty()) {
+    EXPECT_THAT(output, HasSubstr("  wrote " + file.string() + "\n"));
+  }
+}
+
+class CommandOptions : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(clothbench_test::binary()))
+        << "clothbench binary not built: " << clothbench_test::binary();
+  }
+};
+
+TEST_F(CommandOptions, SweepBindCorePinsEachThreadToItsOwnCoreAndRecordsIt) {
+  const fs::path out = fresh_dir("bind-core");
+  const Outcome o = run("sweep " + quote(kScene.string()) +
+                        " --steps 2 --repeat 1 --warmup-steps 0 --no-plots --schedulers static "
+                        "--instrument off --bind core --threads " +
+                        thread_list() + " --out " + quote(out.string()));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(", bind core\n"));
+  const json d = read_json(out / "sweep.json");
+  EXPECT_EQ(d["settings"]["bind"], "core");
+  EXPECT_THAT(read_text(out / "table.md"), HasSubstr("binding `core`"));
+  ASSERT_EQ(d["rows"].size(), static_cast<std::size_t>(two_or_fewer()));
+  for (const json& row : d["rows"]) {
+    const json& b = row["binding"];
+    EXPECT_EQ(b["mode"], "core") << b.dump();
+    EXPECT_TRUE(b["bound"].get<bool>()) << "hwloc could not bind: " << b.dump();
+    ASSERT_EQ(b["threads"].size(), row["threads"].get<std::size_t>()) << b.dump();
+    std::set<std::string> cpusets;
+    for (const json& t : b["threads"]) {
+      EXPECT_FALSE(t["cpuset"].get<std::string>().empty()) << b.dump();
+      cpusets.insert(t["cpuset"].get<std::string>());
+    }
+    EXPECT_EQ(cpusets.size(), b["threads"].size()) << "threads share a core: " << b.dump();
+    // Thread 0 is on core 0 whatever the team size.
+    EXPECT_EQ(b["threads"][0]["cpuset"], d["rows"][0]["binding"]["threads"][0]["cpuset"]);
+  }
+  fs::remove_all(out);
+}
+
+TEST_F(CommandOptions, SweepRefusesABadBindValueNamingTheFlag) {
+  const fs::path out = fresh_dir("bind-bad");
+  const Outcome o = tiny_sweep(out, "--no-plots --schedulers static --threads 1 --bind socket");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--bind"));
+  EXPECT_THAT(o.output, HasSubstr("socket"));
+  EXPECT_FALSE(fs::exists(out / "sweep.json"));
+  fs::remove_all(out);
+}
+
+TEST_F(CommandOptions, SweepInstrumentChunksFillsTheOverheadColumnsAndCountsChunks) {
+  const fs::path out = fresh_dir("instrument-chunks");
+  const Outcome o = tiny_sweep(out,
+                               "--no-plots --schedulers static,dynamic:2 --instrument chunks "
+                               "--threads " +
+                                   thread_list());
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = read_json(out / "sweep.json");
+  EXPECT_EQ(d["settings"]["instrument"], "chunks");
+  ASSERT_EQ(d["rows"].size(), 2u * static_cast<std::size_t>(two_or_fewer()));
+  std::vector<std::int64_t> static_chunks, dynamic_chunks;
+  for (const json& row : d["rows"]) {
+    const std::string where = row["scheduler_canonical"].get<std::string>() + " x " +
+                              std::to_string(row["threads"].get<int>());
+    EXPECT_EQ(row["instrumented"]["level"], "chunks") << where;
+    EXPECT_TRUE(row["instrumented"]["time_seconds"].is_object()) << where;
+    const json& a = row["accounting"];
+    ASSERT_TRUE(a.is_object()) << where;
+    for (const char* k : {"sequential_overhead_seconds", "parallel_overhead_seconds",
+                          "load_imbalance_seconds", "parallel_work_seconds"}) {
+      EXPECT_TRUE(a[k].is_number()) << where << " " << k;
+    }
+    const auto loops = a["loops"].get<std::int64_t>(), chunks = a["chunks"].get<std::int64_t>();
+    EXPECT_GT(loops, 0) << where;
+    EXPECT_GE(chunks, loops) << where << ": every loop hands out at least one chunk";
+    (row["scheduler_canonical"] == "static@blocks" ? static_chunks : dynamic_chunks)
+        .push_back(chunks);
+  }
+  // 16 blocks per loop: dynamic:2 hands out 8 chunks of a full loop, static one per thread.
+  ASSERT_EQ(static_chunks.size(), dynamic_chunks.size());
+  for (std::size_t k = 0; k < static_chunks.size(); ++k) {
+    EXPECT_GT(dynamic_chunks[k], 2 * static_chunks[k]);
+  }
+  // Filled columns: no "-" in the overhead columns of table.md, numbers in table.csv.
+  const std::string md = read_text(out / "table.md");
+  EXPECT_THAT(md, HasSubstr("instrumentation `chunks`"));
+  EXPECT_THAT(md, testing::Not(HasSubstr("| - | - | - | - |")));
+  EXPECT_THAT(read_text(out / "table.csv"),
+              testing::ContainsRegex("\nstatic,static@blocks,1,false,[-0-9.e]+,[-0-9.e]+,[-0-9.e]+,"
+                                     "[-0-9.e]+,[-0-9.e]+,[-0-9.e]+,[-0-9.e]+,"));
+  fs::remove_all(out);
+}
+
+TEST_F(CommandOptions, SweepInstrumentOffLeavesTheOverheadColumnsEmptyAndDrawsNoOverheadFigure) {
+  const fs::path out = fresh_dir("instrument-off");
+  const int threads = two_or_fewer();
+  const Outcome o = tiny_sweep(out, "--schedulers static --instrument off --threads " +
+                                        std::to_string(threads));  // plots on, bind none
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = read_json(out / "sweep.json");
+  EXPECT_EQ(d["settings"]["instrument"], "off");
+  EXPECT_EQ(d["settings"]["bind"], "none");
+  ASSERT_EQ(d["rows"].size(), 1u);
+  const json& row = d["rows"][0];
+  EXPECT_TRUE(row["accounting"].is_null()) << row["accounting"].dump();
+  EXPECT_EQ(row["instrumented"]["level"], "off");
+  EXPECT_TRUE(row["instrumented"]["time_seconds"].is_null());
+  EXPECT_TRUE(row["verification"]["passed"].get<bool>());
+  // Unbound: every thread may run on the same (whole) set of PUs.
+  const json& b = row["binding"];
+  EXPECT_EQ(b["mode"], "none");
+  EXPECT_FALSE(b["bound"].get<bool>());
+  ASSERT_EQ(b["threads"].size(), static_cast<std::size_t>(threads));
+  for (const json& t : b["threads"]) EXPECT_EQ(t["cpuset"], b["threads"][0]["cpuset"]) << b.dump();
+  // Empty overhead columns: "-" in table.md, nothing between the commas in table.csv.
+  EXPECT_THAT(
+      read_text(out / "table.md"),
+      testing::ContainsRegex("\n\\| " + std::to_string(threads) + " \\| - \\| - \\| - \\| - \\| "));
+  EXPECT_THAT(read_text(out / "table.csv"),
+              testing::ContainsRegex("\nstatic,static@blocks," + std::to_string(threads) +
+                                     ",false,[-0-9.e]+,[-0-9.e]+,[-0-9.e]+,,,,,,,,off,"));
+  const RemoveAtExit remove{out};
+  SKIP_WITHOUT_GNUPLOT();
+  EXPECT_FALSE(fs::exists(out / "overhead.png")) << "no accounting, no overhead figure";
+  EXPECT_FALSE(fs::exists(out / "overhead.dat"));
+  expect_figure(out, "fig12.png", 1400, 580, "");
+}
+
+TEST_F(CommandOptions, SweepFiguresArePngsOfTheirSizesWithContent) {
+  const fs::path out = fresh_dir("figures");
+  // Not --quiet: the sweep lists the figures it wrote.
+  const RemoveAtExit remove{out};
+  const Outcome o = run("sweep " + quote(kScene.string()) +
+                        " --steps 2 --repeat 1 --warmup-steps 0 --schedulers static,dynamic:2 "
+                        "--threads " +
+                        thread_list() + " --out " + quote(out.string()));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  SKIP_WITHOUT_GNUPLOT();
+  EXPECT_THAT(o.output, testing::Not(HasSubstr("gnuplot failed"))) << o.output;
+  expect_figure(out, "fig12.png", 1400, 580, o.output);
+  expect_figure(out, "overhead.png", 1500, 650, o.output);
+  expect_figure(out, "cloth.png", 1100, 850, o.output);
+}
+
+/// summary.json of a 2-step run of the tiny scene with `options`.
+json tiny_run(const fs::path& out, const std::string& options, Outcome& o) {
+  o = run("run " + quote(kScene.string()) + " --steps 2 --no-vtk --out " + quote(out.string()) +
+              " " + options,
+          "OMP_NUM_THREADS=1");
+  if (o.exit_code != 0) return json();
+  return read_json(out / "sweep-tiny" / "summary.json");
+}
+
+TEST_F(CommandOptions, RunGradientNumericReachesTheKernel) {
+  const fs::path numeric_out = fresh_dir("gradient-numeric"),
+                 analytic_out = fresh_dir("gradient-analytic");
+  Outcome numeric_run, analytic_run;
+  const json numeric = tiny_run(numeric_out, "--gradient numeric", numeric_run);
+  const json analytic = tiny_run(analytic_out, "", analytic_run);
+  ASSERT_EQ(numeric_run.exit_code, 0) << numeric_run.output;
+  ASSERT_EQ(analytic_run.exit_code, 0) << analytic_run.output;
+  EXPECT_THAT(numeric_run.output, HasSubstr(", gradient numeric,"));
+  EXPECT_THAT(analytic_run.output, HasSubstr(", gradient analytic,"));
+  EXPECT_THAT(numeric_run.output, HasSubstr("\nVerification: PASSED"));
+  EXPECT_EQ(numeric["solver"]["gradient"], "numeric") << numeric["solver"].dump();
+  EXPECT_EQ(analytic["solver"]["gradient"], "analytic") << analytic["solver"].dump();
+  EXPECT_TRUE(numeric["verification"]["passed"].get<bool>());
+  // Finite differences are not the analytic gradient bit for bit, but the same physics: each
+  // step's residual differs in its last digits and agrees to 1 %.
+  ASSERT_EQ(numeric["steps"].size(), 2u);
+  ASSERT_EQ(analytic["steps"].size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double n = numeric["steps"][k]["residual_rms"], a = analytic["steps"][k]["residual_rms"];
+    EXPECT_NE(n, a) << "step " << k + 1 << ": the numeric gradient was not used";
+    EXPECT_NEAR(n, a, 0.01 * a) << "step " << k + 1;
+  }
+  const Outcome bad = run("run " + quote(kScene.string()) + " --steps 1 --no-vtk --gradient exact");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("--gradient"));
+  fs::remove_all(numeric_out);
+  fs::remove_all(analytic_out);
+}
+
+TEST_F(CommandOptions, ExperimentTimeErrorRunsOnTheGivenScene) {
+  const fs::path out = fresh_dir("experiment-scene");
+  // 9 x 9 particles, 3 steps (the tiny size's own base: 21 x 21, 40 steps). The scene's own
+  // step count is used: no --steps.
+  const Outcome o =
+      run("experiment time-error --size tiny --threads 1 --quiet --no-plots --scene " +
+          quote(kTimeErrorScene.string()) + " --out " + quote(out.string()));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("Verification: PASSED"));
+  const fs::path dir = out / "time-error-tiny";
+  const json d = read_json(dir / "time_error.json");
+  EXPECT_EQ(fs::path(d["base_scene"].get<std::string>()), kTimeErrorScene);
+  EXPECT_EQ(d["steps"], 3);
+  EXPECT_EQ(d["base_particles"], 9);
+  const json* base = nullptr;
+  for (const json& r : d["runs"]) {
+    if (r["label"] == "base") base = &r;
+    EXPECT_TRUE(r["passed"].get<bool>()) << r.dump();
+  }
+  ASSERT_NE(base, nullptr);
+  EXPECT_EQ(base->at("particles_start"), 9 * 9);
+  EXPECT_THAT(read_text(dir / "time_error.md"), HasSubstr(kTimeErrorScene.string()));
+  fs::remove_all(out);
+
+  // The other experiments run their own scenes: --scene is refused, not ignored.
+  const Outcome refused = run("experiment table1 --size tiny --quiet --no-plots --scene " +
+                              quote(kTimeErrorScene.string()) + " --out " + quote(out.string()));
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_THAT(refused.output, HasSubstr("--scene"));
+  EXPECT_FALSE(fs::exists(out / "table1-tiny"));
+  fs::remove_all(out);
+}
+
+}  // namespace
