@@ -8,6 +8,7 @@
 #include <cmath>
 #include <memory>
 
+#include "harness/micro/smoke.hpp"
 #include "kernels/simulation.hpp"
 
 namespace {
@@ -18,8 +19,11 @@ using clothbench::kernels::Simulation;
 using clothbench::kernels::TreeCell;
 
 std::unique_ptr<Simulation> graded_box_mesh() {
+  // 1001 = 2^3 x 125 + 1; a smoke run takes 33 = 2^3 x 4 + 1 (smoke.hpp).
+  const int n = clothbench::micro::scaled(1001, 33);
+  const int intervals = n - 1;
   clothbench::kernels::SimulationConfig c;
-  c.cloth.particles_i = c.cloth.particles_j = 1001;
+  c.cloth.particles_i = c.cloth.particles_j = n;
   c.cloth.size_i = c.cloth.size_j = 1.0;
   c.amrc.enabled = true;
   c.amrc.levels = 3;
@@ -27,11 +31,11 @@ std::unique_ptr<Simulation> graded_box_mesh() {
   AdaptiveMesh& tree = sim->begin_tree_edit();
   // Merge every level-3 cell that does not touch the lines 1/4 and 3/4 of the sheet.
   for (int k = 1; k <= 3; ++k) {
-    const int cells = 1000 >> k;
+    const int cells = intervals >> k;
     for (int ci = 0; ci < cells; ++ci) {
       for (int cj = 0; cj < cells; ++cj) {
         auto near_outline = [&](int c) {
-          const double lo = double(c << k) / 1000.0, hi = double((c + 1) << k) / 1000.0;
+          const double lo = double(c << k) / intervals, hi = double((c + 1) << k) / intervals;
           return (lo <= 0.25 && 0.25 <= hi) || (lo <= 0.75 && 0.75 <= hi);
         };
         if (near_outline(ci) || near_outline(cj)) continue;

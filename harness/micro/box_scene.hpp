@@ -2,13 +2,15 @@
 // sheet just above a 50 x 50 x 25 cm box, lightly crumpled, 5 CG iterations a step.
 #pragma once
 
+#include "harness/micro/smoke.hpp"
 #include "kernels/simulation_config.hpp"
 
 namespace clothbench::micro {
 
+/// (n x n; kSmokeParticles in a smoke run, smoke.hpp.)
 inline kernels::SimulationConfig box_scene(int n) {
   kernels::SimulationConfig c;
-  c.cloth.particles_i = c.cloth.particles_j = n;
+  c.cloth.particles_i = c.cloth.particles_j = scaled(n, kSmokeParticles);
   c.cloth.size_i = c.cloth.size_j = 1.0;
   c.cloth.origin = {-0.5, -0.5, 0.252};
   c.cloth.initial_crumple = 0.002;

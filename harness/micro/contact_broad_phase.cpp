@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "harness/micro/smoke.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/static_driver.hpp"
@@ -33,8 +34,10 @@ using clothbench::kernels::SimulationConfig;
 
 SimulationConfig scene_config(const std::string& relative) {
   const std::filesystem::path file = std::filesystem::path(CLOTHBENCH_SOURCE_DIR) / relative;
-  return clothbench::harness::load_scene(file, clothbench::harness::default_presets_file())
-      .simulation;
+  SimulationConfig c =
+      clothbench::harness::load_scene(file, clothbench::harness::default_presets_file()).simulation;
+  clothbench::micro::shrink_for_smoke(c);
+  return c;
 }
 
 double median(std::vector<double> values) {
@@ -90,6 +93,7 @@ std::pair<double, double> timed_step(Simulation& sim) {
 }
 
 void broad_phase_steps(benchmark::State& state, const char* scene, int steps, bool lowered) {
+  steps = clothbench::micro::scaled(steps, 2);
   omp_set_num_threads(1);
   SimulationConfig config = scene_config(scene);
   if (lowered) config.cloth.origin.z() = 0.25 + config.contact.distance + 1e-4;  // touching

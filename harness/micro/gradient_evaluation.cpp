@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "harness/micro/box_scene.hpp"
+#include "harness/micro/smoke.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/static_driver.hpp"
 
@@ -37,6 +38,7 @@ void gradient(benchmark::State& state, Formulation formulation) {
   const int threads = static_cast<int>(state.range(1));
   omp_set_num_threads(threads);
   auto sim = draped_box(n, formulation);
+  if (clothbench::micro::smoke()) state.SetLabel("smoke");
   clothbench::schedulers::OmpStaticDriver driver;
   sim->evaluate(driver, true);
   for (auto _ : state) {
@@ -75,13 +77,19 @@ void triad(benchmark::State& state) {
 }
 
 void gradient_sizes(benchmark::internal::Benchmark* b) {
-  for (int n : {101, 301, 1001}) b->Args({n, 1});
+  using clothbench::micro::kSmokeParticles;
+  using clothbench::micro::smoke;
+  if (smoke()) {
+    b->Args({kSmokeParticles, 1});
+  } else {
+    for (int n : {101, 301, 1001}) b->Args({n, 1});
+  }
   const int all = omp_get_num_procs();
-  if (all > 1) b->Args({1001, all});
+  if (all > 1) b->Args({smoke() ? kSmokeParticles : 1001, all});
   b->UseRealTime()->Unit(benchmark::kMillisecond);
 }
 
 BENCHMARK_CAPTURE(gradient, potential, Formulation::potential)->Apply(gradient_sizes);
-BENCHMARK(triad)->Args({1 << 24, 1})->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(triad)->Args({clothbench::micro::scaled(1 << 24, 1 << 12), 1})->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace

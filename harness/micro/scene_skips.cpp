@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "harness/micro/box_scene.hpp"
+#include "harness/micro/smoke.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/registry.hpp"
@@ -102,12 +103,13 @@ void skip_contact(benchmark::State& state) {
 
 void skip_amrc(benchmark::State& state) {
   omp_set_num_threads(1);
-  constexpr int kSteps = 30;  // the whole scene
-  const SimulationConfig off =
+  const int kSteps = clothbench::micro::scaled(30, 3);  // the whole scene
+  SimulationConfig off =
       clothbench::harness::load_scene(std::filesystem::path(CLOTHBENCH_SOURCE_DIR) /
                                           "scenarios/box-101.toml",
                                       clothbench::harness::default_presets_file())
           .simulation;
+  clothbench::micro::shrink_for_smoke(off);
   SimulationConfig idle = off;
   idle.amrc.enabled = true;
   idle.amrc.levels = 2;
@@ -147,6 +149,7 @@ void skip_amrc(benchmark::State& state) {
 /// 1/4 and 3/4 of the sheet (the finest level stays along them), then draped briefly.
 std::unique_ptr<Simulation> coarsened_sheet(bool coarsen) {
   SimulationConfig c = box_scene(257);
+  const int intervals = c.cloth.particles_i - 1;
   c.amrc.enabled = true;
   c.amrc.levels = 2;
   c.amrc.refine_threshold = 1e9;
@@ -155,9 +158,9 @@ std::unique_ptr<Simulation> coarsened_sheet(bool coarsen) {
   if (coarsen) {
     AdaptiveMesh& tree = sim->begin_tree_edit();
     for (int k = 1; k <= 2; ++k) {
-      const int cells = 256 >> k;
+      const int cells = intervals >> k;
       auto near_line = [&](int cell) {
-        const double lo = double(cell << k) / 256.0, hi = double((cell + 1) << k) / 256.0;
+        const double lo = double(cell << k) / intervals, hi = double((cell + 1) << k) / intervals;
         return (lo <= 0.25 && 0.25 <= hi) || (lo <= 0.75 && 0.75 <= hi);
       };
       for (int ci = 0; ci < cells; ++ci) {

@@ -21,6 +21,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "harness/micro/smoke.hpp"
 #include "schedulers/loop_driver.hpp"
 #include "schedulers/registry.hpp"
 
@@ -32,6 +33,7 @@ constexpr std::int64_t iterations_per_thread = 1024;  // loop length per thread
 constexpr double delay_microseconds = 0.1;            // work of one iteration
 constexpr double sample_target_seconds = 0.02;        // test time of one sample
 constexpr int samples_per_run = 15;                   // benchmark iterations per run
+// (a smoke run, smoke.hpp: 3 samples of one run each)
 constexpr int runs = 3;                               // Google Benchmark repetitions
 
 double seconds_since(Clock::time_point start) {
@@ -123,8 +125,8 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
     benchmark::RegisterBenchmark(("scheduling_overhead/" + spec).c_str(), scheduling_overhead, spec)
         ->UseRealTime()
         ->Unit(benchmark::kMillisecond)
-        ->Iterations(samples_per_run)
-        ->Repetitions(runs);
+        ->Iterations(clothbench::micro::scaled(samples_per_run, 3))
+        ->Repetitions(clothbench::micro::scaled(runs, 1));
   }
   return true;
 }();

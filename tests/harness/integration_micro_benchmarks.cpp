@@ -1,6 +1,7 @@
 // clothbench-micro (harness/micro, Google Benchmark) smoke test: every benchmark family is
-// registered, and one short benchmark (the sequential list rebuild on one thread, about a
-// second) runs, exits 0 and writes JSON whose results and counters are finite and positive.
+// registered at its measuring sizes, and with CLOTHBENCH_MICRO_SMOKE=1 every benchmark runs once
+// at a tiny size (about 20 s in all), exits 0 and writes JSON whose results and counters are
+// finite.
 // Needs a build with CLOTHBENCH_BUILD_BENCHMARKS=ON (tests/CMakeLists.txt passes the binary's
 // path); skipped otherwise (the ASan build of scripts/test --sanitize turns benchmarks off).
 // No timing is asserted.
@@ -12,7 +13,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
 #include <string>
+#include <cstdlib>
 
 #include "tests/harness/clothbench_process.hpp"
 
@@ -43,6 +47,15 @@ clothbench_test::Outcome run_micro([[maybe_unused]] const std::string& arguments
   return outcome;
 }
 
+/// run_micro with CLOTHBENCH_MICRO_SMOKE=1.
+clothbench_test::Outcome run_micro_smoke(const std::string& arguments,
+                                         const fs::path& errors = "/dev/null") {
+  setenv("CLOTHBENCH_MICRO_SMOKE", "1", 1);
+  clothbench_test::Outcome o = run_micro(arguments, errors);
+  unsetenv("CLOTHBENCH_MICRO_SMOKE");
+  return o;
+}
+
 class MicroBenchmarks : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -68,25 +81,62 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
   }
 }
 
-TEST_F(MicroBenchmarks, AShortRunWritesFiniteResultsAsJson) {
+/// Every number in a benchmark's JSON entry (its counters included) is finite. Google
+/// Benchmark writes a NaN or infinity as a bare token, which json::parse already refuses.
+void expect_finite_numbers(const json& b) {
+  for (const auto& [key, value] : b.items()) {
+    if (value.is_number()) {
+      EXPECT_TRUE(std::isfinite(value.get<double>())) << b["name"] << ": " << key << " = " << value;
+    }
+  }
+}
+
+TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {
+  // CLOTHBENCH_MICRO_SMOKE=1 (harness/micro/smoke.hpp): every benchmark at a tiny size.
+  const clothbench_test::Outcome listed = run_micro_smoke("--benchmark_list_tests");
+  ASSERT_EQ(listed.exit_code, 0) << listed.output;
+  std::set<std::string> expected;
+  std::istringstream lines(listed.output);
+  for (std::string line; std::getline(lines, line);) {
+    if (!line.empty()) expected.insert(line);
+  }
+  ASSERT_GE(expected.size(), 40u) << listed.output;
+  // The sizes are the smoke sizes, not the measuring ones.
+  EXPECT_TRUE(expected.count("gradient/potential/17/1/real_time")) << listed.output;
+  EXPECT_FALSE(expected.count("gradient/potential/1001/1/real_time")) << listed.output;
+
   const fs::path errors = clothbench_test::fresh_dir("micro") += ".log";
-  const clothbench_test::Outcome o = run_micro(
-      "--benchmark_filter='^list_rebuild/sequential/1/' --benchmark_min_time=0.001 "
-      "--benchmark_format=json",
-      errors);
+  const clothbench_test::Outcome o =
+      run_micro_smoke("--benchmark_min_time=0.001 --benchmark_format=json", errors);
   ASSERT_EQ(o.exit_code, 0) << o.output << clothbench_test::read_text(errors);
   fs::remove(errors);
   const json d = json::parse(o.output);  // throws (and fails the test) unless it is JSON
   EXPECT_GT(d["context"]["num_cpus"].get<int>(), 0);
-  ASSERT_EQ(d["benchmarks"].size(), 1u) << d["benchmarks"].dump();
-  const json& b = d["benchmarks"][0];
-  EXPECT_EQ(b["name"], "list_rebuild/sequential/1/real_time");
-  EXPECT_FALSE(b.contains("error_occurred")) << b.dump();
-  EXPECT_GE(b["iterations"].get<long long>(), 1);
-  for (const char* key : {"real_time", "cpu_time", "active_particles", "slots_per_second"}) {
-    ASSERT_TRUE(b.contains(key) && b[key].is_number()) << key << " in " << b.dump();
-    const double value = b[key];
-    EXPECT_TRUE(std::isfinite(value) && value > 0.0) << key << " = " << value;
+  EXPECT_THAT(d["context"].value("clothbench_micro_smoke", ""), HasSubstr("not measurements"));
+  std::set<std::string> ran;
+  for (const json& b : d["benchmarks"]) {
+    const std::string name = b["name"];
+    ran.insert(name);
+    EXPECT_FALSE(b.contains("error_occurred") && b["error_occurred"].get<bool>())
+        << name << ": " << b.value("error_message", "");
+    EXPECT_GE(b["iterations"].get<long long>(), 1) << name;
+    expect_finite_numbers(b);
+    EXPECT_GT(b["real_time"].get<double>(), 0.0) << name;
+  }
+  EXPECT_EQ(ran, expected) << "every listed benchmark ran exactly under its name";
+  // A few families' own counters, present and positive.
+  for (const json& b : d["benchmarks"]) {
+    const std::string name = b["name"];
+    auto positive = [&](const char* key) {
+      ASSERT_TRUE(b.contains(key) && b[key].is_number()) << key << " in " << b.dump();
+      EXPECT_GT(b[key].get<double>(), 0.0) << name << ": " << key;
+    };
+    if (name.rfind("list_rebuild/", 0) == 0) positive("slots_per_second");
+    if (name.rfind("gradient/", 0) == 0) positive("elements_per_second");
+    if (name.rfind("triad/", 0) == 0) positive("bytes_per_second");
+    if (name.rfind("broad_phase_steps/", 0) == 0) positive("pairs_tested_off");
+    if (name.rfind("skip_inactive/", 0) == 0) positive("active_share");
+    if (name.rfind("scheduling_overhead/", 0) == 0) positive("loops_per_sample");
   }
 }
 
