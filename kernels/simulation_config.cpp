@@ -9,6 +9,14 @@ namespace clothbench::kernels {
 
 namespace {
 
+constexpr std::array<std::pair<Formulation, const char*>, 2> kFormulations{{
+    {Formulation::potential, "potential"},
+    {Formulation::violation, "violation"},
+}};
+constexpr std::array<std::pair<GradientMode, const char*>, 2> kGradientModes{{
+    {GradientMode::analytic, "analytic"},
+    {GradientMode::numeric, "numeric"},
+}};
 constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
     {StepMethod::nonlinear_cg, "nonlinear-cg"},
     {StepMethod::newton, "newton"},
@@ -43,6 +51,8 @@ std::vector<std::string> names_of(const Table& table) {
 
 }  // namespace
 
+const char* to_string(Formulation formulation) { return name_of(kFormulations, formulation); }
+const char* to_string(GradientMode gradient) { return name_of(kGradientModes, gradient); }
 const char* to_string(StepMethod method) { return name_of(kStepMethods, method); }
 const char* to_string(Preconditioner preconditioner) {
   return name_of(kPreconditioners, preconditioner);

@@ -41,6 +41,8 @@ enum class Preconditioner {
 /// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
 /// "line-solves"), used by scene files, the CLI and every output; from_string returns nullopt
 /// for any other text.
+const char* to_string(Formulation formulation);
+const char* to_string(GradientMode gradient);
 const char* to_string(StepMethod method);
 const char* to_string(Preconditioner preconditioner);
 std::optional<StepMethod> step_method_from_string(std::string_view text);

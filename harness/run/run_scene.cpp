@@ -115,10 +115,8 @@ int run_scene(const RunOptions& options) {
              "preconditioner {}\n",
              scene.simulation.cloth.particles_i, scene.simulation.cloth.particles_j,
              scene.simulation.fabric_name,
-             scene.simulation.solver.formulation == kernels::Formulation::potential ? "potential"
-                                                                                   : "violation",
-             scene.simulation.solver.gradient == kernels::GradientMode::analytic ? "analytic"
-                                                                                 : "numeric",
+             kernels::to_string(scene.simulation.solver.formulation),
+             kernels::to_string(scene.simulation.solver.gradient),
              kernels::to_string(scene.simulation.solver.method),
              kernels::to_string(scene.simulation.solver.preconditioner));
   fmt::print("  scheduler {}, threads {}{}, steps {}\n", driver->name(), threads,

@@ -217,10 +217,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
       {"average_minimised_cost", num(s.average_minimised_cost)},
-      {"solver", {{"formulation", scene.simulation.solver.formulation == kernels::Formulation::violation
-                                      ? "violation" : "potential"},
-                  {"gradient", scene.simulation.solver.gradient == kernels::GradientMode::numeric
-                                   ? "numeric" : "analytic"},
+      {"solver", {{"formulation", kernels::to_string(scene.simulation.solver.formulation)},
+                  {"gradient", kernels::to_string(scene.simulation.solver.gradient)},
                   {"method", s.method},
                   {"preconditioner", kernels::to_string(scene.simulation.solver.preconditioner)}}},
       {"cg_iterations", s.total_iterations},

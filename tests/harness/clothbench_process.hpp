@@ -35,13 +35,9 @@ struct Outcome {
 /// `s` in single quotes for the shell (no single quotes inside, as in every test path).
 inline std::string quote(const std::string& s) { return "'" + s + "'"; }
 
-/// Runs clothbench with `arguments` (already shell-quoted where needed); `environment` is
-/// put in front of the command, e.g. "OMP_NUM_THREADS=3".
-inline Outcome run(const std::string& arguments, const std::string& environment = {}) {
-  // A hung child (a kernel deadlock) fails the test instead of blocking it.
-  const std::string command = (environment.empty() ? "" : "env " + environment + " ") +
-                              "timeout -s KILL 300 " + quote(binary().string()) + " " + arguments +
-                              " 2>&1";
+/// Runs a shell command line: its exit code and what it wrote to stdout (redirect stderr in
+/// the command to keep it).
+inline Outcome run_command(const std::string& command) {
   Outcome outcome;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return outcome;
@@ -50,6 +46,15 @@ inline Outcome run(const std::string& arguments, const std::string& environment 
   const int status = pclose(pipe);
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return outcome;
+}
+
+/// Runs clothbench with `arguments` (already shell-quoted where needed); `environment` is
+/// put in front of the command, e.g. "OMP_NUM_THREADS=3".
+inline Outcome run(const std::string& arguments, const std::string& environment = {}) {
+  // A hung child (a kernel deadlock) fails the test instead of blocking it.
+  return run_command((environment.empty() ? "" : "env " + environment + " ") +
+                     "timeout -s KILL 300 " + quote(binary().string()) + " " + arguments +
+                     " 2>&1");
 }
 
 /// Starts clothbench with `arguments` (no shell) in the background, its stdout and stderr

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/report/sweep_plots.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
 namespace {
@@ -64,13 +65,11 @@ struct RemoveAtExit {
   ~RemoveAtExit() { fs::remove_all(dir); }
 };
 
-bool gnuplot_installed() { return std::system("gnuplot --version > /dev/null 2>&1") == 0; }
-
 /// Without gnuplot the figures are not checked: the test is skipped, or fails under CI=true
 /// (scripts/setup installs gnuplot, so CI must check them).
 #define SKIP_WITHOUT_GNUPLOT()                                                                   \
   do {                                                                                           \
-    if (!gnuplot_installed()) {                                                                  \
+    if (!clothbench::harness::gnuplot_available()) {                                             \
       const char* ci = std::getenv("CI");                                                        \
       if (ci != nullptr && std::string(ci) == "true") FAIL() << "gnuplot missing under CI=true"; \
       GTEST_SKIP() << "gnuplot is not installed: no figures to check";                           \

@@ -7,10 +7,8 @@
 // No timing is asserted.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -33,18 +31,13 @@ const fs::path kMicro = CLOTHBENCH_MICRO_BINARY;
 /// Exit code and output (stdout; stderr to `errors` when given) of clothbench-micro `arguments`.
 clothbench_test::Outcome run_micro([[maybe_unused]] const std::string& arguments,
                                    [[maybe_unused]] const fs::path& errors = "/dev/null") {
-  clothbench_test::Outcome outcome;
 #ifdef CLOTHBENCH_MICRO_BINARY
-  const std::string command = "timeout -s KILL 300 " + clothbench_test::quote(kMicro.string()) +
-                              " " + arguments + " 2>" + clothbench_test::quote(errors.string());
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return outcome;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) outcome.output += buffer;
-  const int status = pclose(pipe);
-  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return clothbench_test::run_command("timeout -s KILL 300 " +
+                                      clothbench_test::quote(kMicro.string()) + " " + arguments +
+                                      " 2>" + clothbench_test::quote(errors.string()));
+#else
+  return {};
 #endif
-  return outcome;
 }
 
 /// run_micro with CLOTHBENCH_MICRO_SMOKE=1.

@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 
+#include "tests/harness/sanitizer_build.hpp"
 #include "tests/harness/stress_cell_checks.hpp"
 
 namespace clothbench {
@@ -26,17 +27,7 @@ namespace {
 using harness::StressSize;
 using stress_test::Named;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+using clothbench_test::kSanitized;
 
 /// Cells that take most of the matrix's time; skipped in sanitizer builds only.
 bool heavy(std::string_view name) {

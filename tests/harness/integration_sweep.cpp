@@ -25,6 +25,7 @@
 
 #include "harness/sweep/sweep_document.hpp"
 #include "tests/harness/clothbench_process.hpp"
+#include "tests/harness/sanitizer_build.hpp"
 
 namespace {
 
@@ -33,19 +34,9 @@ using nlohmann::json;
 
 const fs::path kScene = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
 
-// Sanitizer builds (scripts/test --sanitize, scripts/tsan-check) run the kernel 10 to 20 times
-// slower: there the sweeps repeat each run less, and waits are longer.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+// Sanitizer builds run the kernel 10 to 20 times slower: there the sweeps repeat each run
+// less, and waits are longer.
+using clothbench_test::kSanitized;
 constexpr int kWaitSeconds = kSanitized ? 900 : 120;
 
 using clothbench_test::binary;
@@ -239,12 +230,9 @@ std::size_t wait_for_rows(const fs::path& out, std::size_t rows, int seconds) {
 
 /// Exit code of a shell command line (stdout and stderr discarded into `output`).
 int run_shell(const std::string& command, std::string& output) {
-  FILE* pipe = popen(("timeout -s KILL 300 " + command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return -1;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const Outcome o = clothbench_test::run_command("timeout -s KILL 300 " + command + " 2>&1");
+  output += o.output;
+  return o.exit_code;
 }
 
 TEST_F(SweepBinary, CtrlCStopsAfterTheCurrentRunKeepsRowsAndTheResumeCommandCompletes) {
