@@ -97,8 +97,9 @@ int main(int argc, char** argv) {
   auto* preconditioner_option =
       run_command
           ->add_option("--preconditioner", preconditioner,
-                       "Override the preconditioner: none, block-jacobi or line-solves "
-                       "(block-tridiagonal solves along the grid lines)")
+                       "Override the preconditioner: none, block-jacobi, line-solves "
+                       "(block-tridiagonal solves along the grid lines) or multigrid (line "
+                       "solves and a coarse grid; Newton only)")
           ->check(CLI::IsMember(clothbench::kernels::preconditioner_names()));
   run_command->add_option("--out", run.output_dir, "Output directory for VTK and JSON")
       ->capture_default_str();

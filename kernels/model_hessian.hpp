@@ -22,6 +22,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <cstdint>
 #include <vector>
 
@@ -29,6 +30,10 @@
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
+
+/// Unknown index of every slot: 0, 1, ... for the free particles in slot order, -1 for every
+/// other slot (pinned, inactive, ghost). `count` receives the number of unknowns.
+std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* count);
 
 class ModelHessian {
  public:
@@ -46,6 +51,15 @@ class ModelHessian {
   /// state's triple_scratch as work space. Every thread of the region calls it.
   double apply(LoopRunner& run, const StepContext& ctx, std::vector<double>& v,
                std::vector<double>& y);
+
+  /// The assembled model as an explicit sparse matrix over the unknowns (3 rows and columns
+  /// per free particle, unknown k at rows 3k..3k+2; `unknown_of_slot` from free_unknowns).
+  /// Ghosts enter as in apply(): a ghost follows its parents with weight 1/2 each, and what it
+  /// receives goes half to each. Sequential; for the multigrid's Galerkin coarse operators and
+  /// for tests (matrix() * v equals apply(v)).
+  [[nodiscard]] Eigen::SparseMatrix<double> matrix(const StepContext& ctx,
+                                                   const std::vector<std::int64_t>& unknown_of_slot,
+                                                   std::int64_t unknowns) const;
 
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;

@@ -30,6 +30,7 @@ void PotentialObjective::assemble_newton(LoopRunner& run) {
     store_symmetric(lines->edge_block, id, hessian.edge_block(ctx_, id));
   });
   lines->factor(run, ctx_);
+  if (multigrid_ != nullptr) multigrid_->factor(run, ctx_, hessian);
 }
 
 LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, double forcing,
@@ -52,9 +53,13 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
                                             : Eigen::Vector3d::Zero();
   });
   // z = M^-1 r (into `product`) with the sums r . z and |r|_W^2. Block Jacobi is computed in
-  // the same loop as the sums; line solves first solve every line.
+  // the same loop as the sums; line solves first solve every line, the multigrid runs a cycle.
   auto precondition_residual = [&]() {
-    if (lines != nullptr) lines->apply(run, ctx_, ns.residual, ns.product);
+    if (multigrid_ != nullptr) {
+      multigrid_->apply(run, ctx_, *lines, ns.residual, ns.product);
+    } else if (lines != nullptr) {
+      lines->apply(run, ctx_, ns.residual, ns.product);
+    }
     run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
                           [&](std::int64_t s, PcgSums& acc) {
                             auto z = vec3(ns.product, s);

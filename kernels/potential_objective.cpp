@@ -4,6 +4,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -18,11 +19,21 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
       scalar_partials_(ctx.mesh.tile_count()),
       gather_partials_(ctx.mesh.tile_count()),
       precondition_partials_(ctx.mesh.tile_count()) {
-  if (ctx.config.solver.preconditioner == Preconditioner::line_solves) {
-    lines_ = std::make_unique<LinePreconditioner>(ctx.mesh);
-    line_z_.assign(3 * static_cast<std::size_t>(ctx.mesh.slot_count()), 0.0);
+  const Preconditioner kind = ctx.config.solver.preconditioner;
+  if (kind == Preconditioner::line_solves || kind == Preconditioner::multigrid) {
+    lines_ = std::make_unique<LinePreconditioner>(ctx.mesh);  // the multigrid's smoother
+    if (kind == Preconditioner::line_solves) {
+      line_z_.assign(3 * static_cast<std::size_t>(ctx.mesh.slot_count()), 0.0);
+    }
   }
   if (ctx.config.solver.method == StepMethod::newton) newton_ = std::make_unique<NewtonSystem>(ctx.mesh);
+  if (kind == Preconditioner::multigrid) {
+    if (newton_ == nullptr) {
+      throw std::invalid_argument(
+          "the multigrid preconditioner needs method = \"newton\" (kernels::validate)");
+    }
+    multigrid_ = std::make_unique<MultigridPreconditioner>();
+  }
 }
 
 PotentialObjective::~PotentialObjective() = default;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kernels/line_preconditioner.hpp"
+#include "kernels/multigrid_preconditioner.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/step_objective.hpp"
@@ -30,12 +31,14 @@ class PotentialObjective final : public StepObjective {
   void prepare_history(LoopRunner& run) override;
   [[nodiscard]] std::size_t memory_bytes() const override {
     return (lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double)) +
-           (newton_ == nullptr ? 0 : newton_->memory_bytes());
+           (newton_ == nullptr ? 0 : newton_->memory_bytes()) +
+           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes());
   }
 
   // --- Newton (StepMethod::newton; potential_newton.cpp) ---------------------------------
-  /// Assembles the model Hessian and its preconditioner (block Jacobi or line solves on the
-  /// model's blocks) at the current positions; refresh_preconditioner calls it under Newton.
+  /// Assembles the model Hessian and its preconditioner (block Jacobi, line solves on the
+  /// model's blocks, or the multigrid over them) at the current positions;
+  /// refresh_preconditioner calls it under Newton.
   void assemble_newton(LoopRunner& run);
   /// Solves H p = -g inexactly by linear PCG (g: the gradient of the last evaluate, H the
   /// model assembled last), stopping when the weighted residual norm
@@ -48,6 +51,8 @@ class PotentialObjective final : public StepObjective {
   }
   /// The line-solve preconditioner, or null when the scene uses block Jacobi (tests).
   [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
+  /// The multigrid preconditioner, or null (tests).
+  [[nodiscard]] MultigridPreconditioner* multigrid() { return multigrid_.get(); }
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
@@ -69,6 +74,7 @@ class PotentialObjective final : public StepObjective {
   std::unique_ptr<LinePreconditioner> lines_;
   std::vector<double> line_z_;  ///< 3 per slot: P^-1 g at the current point (line solves)
   std::unique_ptr<NewtonSystem> newton_;
+  std::unique_ptr<MultigridPreconditioner> multigrid_;  ///< Newton with preconditioner = multigrid
 };
 
 }  // namespace clothbench::kernels

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "kernels/line_preconditioner.hpp"
+#include "kernels/multigrid_preconditioner.hpp"
 #include "kernels/newton_minimiser.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/potential_objective.hpp"
@@ -400,12 +401,21 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   // AMRC tree 2 B.
   const std::size_t per_slot =
       7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
-  const std::size_t lines = config.solver.preconditioner == Preconditioner::line_solves
-                                ? n * LinePreconditioner::kBytesPerSlot
-                                : 0;
+  const Preconditioner kind = config.solver.preconditioner;
+  const std::size_t lines =
+      kind == Preconditioner::line_solves || kind == Preconditioner::multigrid
+          ? n * LinePreconditioner::kBytesPerSlot
+          : 0;
+  // The multigrid's fine matrix lives only while the coarse operator is built: its triplets
+  // (per slot 2 edges of 4 blocks and 2 triples of 9, 9 entries a block, 16 B each) and the
+  // compressed matrix (3 rows of 27 entries, 12 B each).
+  const std::size_t multigrid =
+      kind == Preconditioner::multigrid
+          ? n * (MultigridPreconditioner::kBytesPerSlot + (2 * 4 + 2 * 9) * 9 * 16 + 3 * 27 * 12)
+          : 0;
   const std::size_t newton =
       config.solver.method == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
-  return n * per_slot + lines + newton + (16u << 20);
+  return n * per_slot + lines + multigrid + newton + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

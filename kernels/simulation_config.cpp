@@ -21,10 +21,11 @@ constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
     {StepMethod::nonlinear_cg, "nonlinear-cg"},
     {StepMethod::newton, "newton"},
 }};
-constexpr std::array<std::pair<Preconditioner, const char*>, 3> kPreconditioners{{
+constexpr std::array<std::pair<Preconditioner, const char*>, 4> kPreconditioners{{
     {Preconditioner::none, "none"},
     {Preconditioner::block_jacobi, "block-jacobi"},
     {Preconditioner::line_solves, "line-solves"},
+    {Preconditioner::multigrid, "multigrid"},
 }};
 
 template <class Table, class Enum>
@@ -83,6 +84,30 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "formulation only",
                         "expected preconditioner = \"block-jacobi\" or \"none\" with formulation "
                         "= \"violation\", or formulation = \"potential\""});
+  }
+  if (solver.preconditioner == Preconditioner::multigrid && solver.method != StepMethod::newton &&
+      !violation) {
+    problems.push_back({"solver.preconditioner", "solver.method",
+                        "the multigrid preconditioner preconditions Newton's inner linear PCG "
+                        "(its coarse operator is built from the Newton model)",
+                        "expected method = \"newton\" with preconditioner = \"multigrid\", or "
+                        "preconditioner = \"line-solves\" with nonlinear CG"});
+  }
+  if (violation && solver.preconditioner == Preconditioner::multigrid) {
+    problems.push_back({"solver.preconditioner", "solver.formulation",
+                        "the multigrid preconditioner is implemented for the potential "
+                        "formulation's Newton method only",
+                        "expected preconditioner = \"block-jacobi\" or \"none\" with formulation "
+                        "= \"violation\", or formulation = \"potential\" with method = "
+                        "\"newton\""});
+  }
+  if (solver.preconditioner == Preconditioner::multigrid && config.cloth.particles_i < 3 &&
+      config.cloth.particles_j < 3) {
+    problems.push_back({"solver.preconditioner", "cloth.particles",
+                        "a multigrid needs a coarse grid, and a cloth of fewer than 3 particles "
+                        "along both directions has none",
+                        "expected at least 3 particles along one direction, or preconditioner = "
+                        "\"line-solves\""});
   }
   if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
     problems.push_back({"solver.gradient", "amrc.enabled",

@@ -36,10 +36,11 @@ enum class Preconditioner {
   none,          ///< positions in units of the finest spacing (P^-1 = h^2 I)
   block_jacobi,  ///< per-particle 3x3 blocks of the model stiffness
   line_solves,   ///< block-tridiagonal solves along the grid lines (potential formulation)
+  multigrid,     ///< line-solve smoothing and a Galerkin coarse grid (Newton's inner PCG only)
 };
 
 /// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
-/// "line-solves"), used by scene files, the CLI and every output; from_string returns nullopt
+/// "line-solves", "multigrid"), used by scene files, the CLI and every output; from_string returns nullopt
 /// for any other text.
 const char* to_string(Formulation formulation);
 const char* to_string(GradientMode gradient);

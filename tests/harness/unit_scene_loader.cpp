@@ -308,7 +308,10 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   EXPECT_EQ(defaults.method, StepMethod::nonlinear_cg);
   EXPECT_EQ(defaults.preconditioner, Preconditioner::block_jacobi);
   for (const std::string& name : clothbench::kernels::preconditioner_names()) {
-    const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"" + name + "\"\n";
+    // The multigrid preconditions Newton's inner PCG only.
+    const std::string method = name == "multigrid" ? "method = \"newton\"\n" : "";
+    const std::string text =
+        "[cloth]\nparticles = [9, 9]\n[solver]\n" + method + "preconditioner = \"" + name + "\"\n";
     const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
     EXPECT_EQ(clothbench::kernels::to_string(read), name);
   }
@@ -346,6 +349,51 @@ TEST(SceneLoader, OldPreconditionerBooleansAreRefusedWithWhatToWrite) {
       EXPECT_THAT(error.what(), StartsWith(message)) << line;
     }
   }
+}
+
+TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettingGiven) {
+  struct Case {
+    std::string text;
+    std::string message;
+    kernels::SimulationConfig config;  ///< the same settings handed to the kernel
+  };
+  std::vector<Case> cases(3);
+  cases[0].text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"multigrid\"\n";
+  cases[0].message =
+      "solver.toml:4:18: [solver] preconditioner: the multigrid preconditioner preconditions "
+      "Newton's inner linear PCG";
+  cases[0].config.solver.preconditioner = kernels::Preconditioner::multigrid;
+  cases[1].text =
+      "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\npreconditioner = "
+      "\"multigrid\"\n";
+  cases[1].message =
+      "solver.toml:5:18: [solver] preconditioner: the multigrid preconditioner is implemented for "
+      "the potential formulation's Newton method only";
+  cases[1].config.solver.formulation = kernels::Formulation::violation;
+  cases[1].config.solver.preconditioner = kernels::Preconditioner::multigrid;
+  cases[2].text =
+      "[cloth]\nparticles = [2, 2]\nsize_m = [0.01, 0.01]\n[solver]\nmethod = \"newton\"\n"
+      "preconditioner = \"multigrid\"\n";
+  cases[2].message =
+      "solver.toml:6:18: [solver] preconditioner: a multigrid needs a coarse grid, and a cloth of "
+      "fewer than 3 particles along both directions has none";
+  cases[2].config.cloth.particles_i = cases[2].config.cloth.particles_j = 2;
+  cases[2].config.solver.method = kernels::StepMethod::newton;
+  cases[2].config.solver.preconditioner = kernels::Preconditioner::multigrid;
+  for (const Case& c : cases) {
+    try {
+      (void)parse_scene(c.text, "solver.toml", kPresets);
+      FAIL() << "accepted " << c.text;
+    } catch (const SceneError& error) {
+      EXPECT_THAT(error.what(), StartsWith(c.message)) << c.text;
+    }
+    EXPECT_THROW(kernels::Simulation simulation(c.config), std::invalid_argument) << c.text;
+  }
+  // A cloth of three particles along one direction has a coarse grid.
+  EXPECT_NO_THROW((void)parse_scene(
+      "[cloth]\nparticles = [3, 2]\nsize_m = [0.01, 0.01]\n[solver]\nmethod = \"newton\"\n"
+      "preconditioner = \"multigrid\"\n",
+      "solver.toml", kPresets));
 }
 
 TEST(SceneLoader, SolverCombinationsTheKernelCannotRunAreLocatedAtTheSettingGiven) {

@@ -1,0 +1,115 @@
+// The model Hessian as an explicit sparse matrix (see model_hessian.hpp): the same terms as
+// ModelHessian::apply, assembled element by element into 3x3 blocks between nodes, each node
+// expanded to the unknowns it follows (a free particle: itself; a ghost: half of each parent,
+// recursively; a pinned particle: nothing, its entries of v are zero).
+#include <Eigen/SparseCore>
+#include <utility>
+#include <vector>
+
+#include "kernels/ghost_nodes.hpp"
+#include "kernels/model_hessian.hpp"
+
+namespace clothbench::kernels {
+
+namespace {
+
+Eigen::Matrix3d load_block(const std::vector<double>& in, std::int64_t s) {
+  const double* p = in.data() + 6 * s;
+  Eigen::Matrix3d m;
+  m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
+  return m;
+}
+
+/// (unknown, weight) pairs a node's value follows.
+void expand(const ClothMesh& mesh, const std::vector<std::int64_t>& unknown_of_slot,
+            std::int64_t node, double weight, std::vector<std::pair<std::int64_t, double>>& out) {
+  const int d = ghost_direction(mesh.flags[node]);
+  if (d >= 0) {
+    const std::int64_t id = element_id(node, d);
+    expand(mesh, unknown_of_slot, mesh.prev[id], 0.5 * weight, out);
+    expand(mesh, unknown_of_slot, mesh.next[id], 0.5 * weight, out);
+    return;
+  }
+  if (unknown_of_slot[node] >= 0) out.emplace_back(unknown_of_slot[node], weight);
+}
+
+}  // namespace
+
+std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* count) {
+  std::vector<std::int64_t> index(static_cast<std::size_t>(ctx.mesh.slot_count()), -1);
+  std::int64_t n = 0;
+  for (std::int64_t s = 0; s < ctx.mesh.slot_count(); ++s) {
+    if (ctx.is_free(s)) index[s] = n++;
+  }
+  if (count != nullptr) *count = n;
+  return index;
+}
+
+Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
+                                                 const std::vector<std::int64_t>& unknown_of_slot,
+                                                 std::int64_t unknowns) const {
+  const ClothMesh& mesh = ctx.mesh;
+  const ClothState& st = ctx.state;
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  std::vector<Eigen::Triplet<double>> triplets;
+  std::vector<std::pair<std::int64_t, double>> rows, cols;
+  // Block B between nodes r and s, expanded to the unknowns on both sides.
+  auto add = [&](std::int64_t r, std::int64_t s, const Eigen::Matrix3d& block) {
+    rows.clear();
+    cols.clear();
+    expand(mesh, unknown_of_slot, r, 1.0, rows);
+    expand(mesh, unknown_of_slot, s, 1.0, cols);
+    for (const auto& [i, wi] : rows) {
+      for (const auto& [j, wj] : cols) {
+        for (int a = 0; a < 3; ++a) {
+          for (int b = 0; b < 3; ++b) {
+            const double value = wi * wj * block(a, b);
+            if (value != 0.0) triplets.emplace_back(3 * i + a, 3 * j + b, value);
+          }
+        }
+      }
+    }
+  };
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (unknown_of_slot[s] >= 0) add(s, s, load_block(inertia_, s));
+  }
+  const std::int64_t ids = 2 * mesh.slot_count();
+  for (std::int64_t id = 0; id < ids; ++id) {
+    if (mesh.edge_active[id]) {
+      const std::int64_t a = element_slot(id), b = mesh.next[id];
+      const Eigen::Vector3d e = x(b) - x(a);
+      const double l = e.norm();
+      if (l > 0.0) {
+        const Eigen::Vector3d u = e / l;
+        const double alpha = edge_[2 * id], beta = edge_[2 * id + 1];
+        const Eigen::Matrix3d k = beta * identity + (alpha - beta) * u * u.transpose();
+        add(a, a, k);
+        add(b, b, k);
+        add(a, b, -k);
+        add(b, a, -k);
+      }
+    }
+    if (mesh.triple_active[id] && bending_[id] > 0.0) {
+      const std::int64_t c = element_slot(id), pa = mesh.prev[id], nb = mesh.next[id];
+      const Eigen::Vector3d e1 = x(c) - x(pa), e2 = x(nb) - x(c);
+      const double n1 = e1.norm(), n2 = e2.norm();
+      if (n1 > 0.0 && n2 > 0.0) {
+        const Eigen::Vector3d u1 = e1 / n1, u2 = e2 / n2;
+        const Eigen::Matrix3d ja = (identity - u1 * u1.transpose()) / n1;
+        const Eigen::Matrix3d jb = (identity - u2 * u2.transpose()) / n2;
+        const Eigen::Matrix3d jc = -(ja + jb);
+        const std::int64_t node[3] = {pa, c, nb};
+        const Eigen::Matrix3d* j[3] = {&ja, &jc, &jb};
+        for (int r = 0; r < 3; ++r) {
+          for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_[id] * (*j[r]) * (*j[q]));
+        }
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> m(3 * unknowns, 3 * unknowns);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+}  // namespace clothbench::kernels

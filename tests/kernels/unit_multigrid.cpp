@@ -1,0 +1,289 @@
+// The multigrid preconditioner of Newton's inner PCG (kernels/multigrid_preconditioner.hpp):
+// its prolongation reproduces linear fields across ghosts and pins, its coarse operator is
+// P^T H P, the cycle is symmetric positive definite, and PCG iterations with it stay flat as
+// the mesh is refined where the line solves alone grow.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "kernel_fixtures.hpp"
+#include "kernels/potential_objective.hpp"
+#include "tests/harness/sanitizer_build.hpp"
+
+namespace clothbench {
+namespace {
+
+using kernels::Preconditioner;
+
+/// A flat n x n sheet stretched by 2 % with two pinned corners and bent triples (the bending
+/// band on its loading branch): the linear model of the solver tests.
+kernels::SimulationConfig stretched_sheet(int n, Preconditioner preconditioner) {
+  kernels::SimulationConfig c;
+  c.cloth.particles_i = c.cloth.particles_j = n;
+  c.cloth.block_size = 8;
+  c.cloth.size_i = c.cloth.size_j = 0.5;
+  c.cloth.origin = {-0.25, -0.25, 0.0};
+  c.cloth.pinned = {{0, 0}, {n - 1, n - 1}};
+  c.time.step = 0.004;
+  c.solver.method = kernels::StepMethod::newton;
+  c.solver.preconditioner = preconditioner;
+  return c;
+}
+
+/// A graded AMRC cloth (coarse cells beside fine ones: ghosts) with pins, obstacles in contact
+/// and a random state.
+kernels::SimulationConfig graded_cloth(bool pins) {
+  kernels::SimulationConfig c = testing::small_cloth(true, pins);
+  c.cloth.particles_i = 17;
+  c.cloth.particles_j = 9;
+  c.cloth.size_i = 0.4;
+  c.amrc.enabled = true;
+  c.amrc.levels = 3;
+  c.solver.method = kernels::StepMethod::newton;
+  c.solver.preconditioner = Preconditioner::multigrid;
+  return c;
+}
+
+struct Fixture {
+  explicit Fixture(const kernels::SimulationConfig& config)
+      : sim(config),
+        ctx{sim.mesh(), sim.material(), sim.obstacles(), sim.config(), sim.state()},
+        objective(ctx) {}
+  template <class F>
+  void run(F&& f) {
+    schedulers::OmpStaticDriver driver;
+    kernels::LoopRunner r(driver, sim.mesh(), nullptr, kernels::Instrumentation::off, nullptr);
+    f(r);
+  }
+  /// Leaves of 1, 2 and 4 finest cells side by side (ghosts on their shared sides): two cells
+  /// of 2 x 2, and a cell of 4 x 4 at the end of the sheet with cells of 2 x 2 around it.
+  void grade() {
+    kernels::AdaptiveMesh& tree = sim.begin_tree_edit();
+    for (const kernels::TreeCell c :
+         {kernels::TreeCell{1, 0, 0}, kernels::TreeCell{1, 3, 1}, kernels::TreeCell{1, 5, 0},
+          kernels::TreeCell{1, 5, 1}, kernels::TreeCell{1, 6, 2}, kernels::TreeCell{1, 7, 2},
+          kernels::TreeCell{1, 6, 0}, kernels::TreeCell{1, 7, 0}, kernels::TreeCell{1, 6, 1},
+          kernels::TreeCell{1, 7, 1}, kernels::TreeCell{2, 3, 0}}) {
+      EXPECT_TRUE(tree.coarsen(c, sim.mesh())) << c.level << " " << c.ci << " " << c.cj;
+    }
+    sim.end_tree_edit();
+    ASSERT_GT(sim.mesh().ghost_count(), 0);
+  }
+  /// Ghosts on their midpoints, the per-step constants, then H and its preconditioner.
+  void assemble() {
+    schedulers::OmpStaticDriver driver;
+    (void)sim.evaluate(driver, true);
+    run([&](kernels::LoopRunner& r) {
+      objective.prepare_history(r);
+      objective.refresh_preconditioner(r);
+    });
+  }
+  std::vector<double> product(std::vector<double> v) {
+    std::vector<double> y(v.size(), 0.0);
+    run([&](kernels::LoopRunner& r) { (void)objective.model_hessian()->apply(r, ctx, v, y); });
+    return y;
+  }
+  std::vector<double> precondition(const std::vector<double>& r) {
+    std::vector<double> z(r.size(), 0.0);
+    run([&](kernels::LoopRunner& lr) {
+      if (objective.multigrid() != nullptr) {
+        objective.multigrid()->apply(lr, ctx, *objective.line_preconditioner(), r, z);
+      } else {
+        objective.line_preconditioner()->apply(lr, ctx, r, z);
+      }
+    });
+    return z;
+  }
+  std::vector<double> random_free(unsigned seed) const {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    std::vector<double> v(sim.state().position.size(), 0.0);
+    for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
+      if (!ctx.is_free(s)) continue;
+      for (int k = 0; k < 3; ++k) v[3 * s + k] = unit(rng);
+    }
+    return v;
+  }
+  kernels::Simulation sim;
+  kernels::StepContext ctx;
+  kernels::PotentialObjective objective;
+};
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
+  return sum;
+}
+
+/// Linear PCG on the kernel's model Hessian with the objective's own preconditioner, to a
+/// relative residual of 1e-6; returns the iterations.
+int pcg_iterations(Fixture& f, const std::vector<double>& b) {
+  std::vector<double> x(b.size(), 0.0), r = b, z = f.precondition(r), p = z;
+  double rz = dot(r, z);
+  const double stop = 1e-6 * std::sqrt(dot(b, b));
+  for (int it = 1; it <= 3000; ++it) {
+    const std::vector<double> q = f.product(p);
+    const double alpha = rz / dot(p, q);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      x[i] += alpha * p[i];
+      r[i] -= alpha * q[i];
+    }
+    if (std::sqrt(dot(r, r)) <= stop) return it;
+    z = f.precondition(r);
+    const double rz_new = dot(r, z);
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] = z[i] + rz_new / rz * p[i];
+    rz = rz_new;
+  }
+  return 3001;
+}
+
+/// Stretched by 2 %, bent before (bending in the model), the step's constants and H.
+void load_stretched(Fixture& f) {
+  kernels::ClothState& st = f.sim.state();
+  for (std::size_t i = 0; i < st.position.size(); ++i) {
+    if (i % 3 != 2) st.position[i] *= 1.02;
+  }
+  for (double& m : st.triple_moment) m = 2.0 * f.sim.material().bending[0].hb;
+  st.target = st.position;
+  st.step_start = st.position;
+  f.run([&](kernels::LoopRunner& r) { f.objective.begin_step(r); });
+}
+
+TEST(Multigrid, PcgIterationsStayFlatFrom17To257WhereLineSolvesGrow) {
+  // The line solves alone up to 129^2 (542 iterations at 257^2 would double the test's time).
+  int lines_first = 0, lines_last = 0;
+  for (int n : {17, 33, 65, 129, 257}) {
+    if (n == 257 && clothbench_test::kSanitized) continue;
+    Fixture mg(stretched_sheet(n, Preconditioner::multigrid));
+    load_stretched(mg);
+    ASSERT_EQ(mg.objective.multigrid()->coarse_failures(), 0);
+    const std::vector<double> b = mg.random_free(7);
+    const int with_mg = pcg_iterations(mg, b);
+    EXPECT_LE(with_mg, 20) << n << "^2";
+    if (n > 129) {
+      std::printf("%d^2: PCG iterations with the two-level preconditioner %d\n", n, with_mg);
+      continue;
+    }
+    Fixture lines(stretched_sheet(n, Preconditioner::line_solves));
+    load_stretched(lines);
+    const int with_lines = pcg_iterations(lines, b);
+    std::printf("%d^2: PCG iterations with line solves %d, with the two-level preconditioner %d\n",
+                n, with_lines, with_mg);
+    if (n == 17) lines_first = with_lines;
+    lines_last = with_lines;
+  }
+  EXPECT_GT(lines_last, 4 * lines_first) << "the line solves alone grow with the mesh";
+}
+
+TEST(Multigrid, ProlongationReproducesLinearFieldsAcrossGhostsAndDropsPins) {
+  // A linear field sampled at the coarse nodes is interpolated exactly at every free particle
+  // (the bilinear rule and the ghosts' midpoint rule both reproduce linear fields); a pinned
+  // corner contributes nothing, so rows next to a pin sum to less than one.
+  for (bool pins : {false, true}) {
+    Fixture f(graded_cloth(pins));
+    f.grade();
+    f.assemble();
+    const kernels::MultigridPreconditioner& mg = *f.objective.multigrid();
+    const auto& p = mg.prolongation();
+    const kernels::ClothMesh& mesh = f.sim.mesh();
+    ASSERT_GT(mg.coarse_nodes(), 0);
+    std::int64_t free_count = 0;
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) free_count += f.ctx.is_free(s) ? 1 : 0;
+    EXPECT_LT(mg.coarse_nodes(), free_count / 2) << "the coarse grid is coarser";
+    // Coarse values: the linear field (i, 2j, i - j) of each coarse node's grid point.
+    Eigen::VectorXd coarse(p.cols());
+    std::vector<bool> seen(static_cast<std::size_t>(p.cols()), false);
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(p, 3 * s); it; ++it) {
+        if (it.value() == 1.0) {  // an identity row: s is this coarse node
+          const Eigen::Vector3d field(mesh.grid_i(s), 2.0 * mesh.grid_j(s),
+                                      mesh.grid_i(s) - mesh.grid_j(s));
+          coarse.segment<3>(it.col()) = field;
+          seen[static_cast<std::size_t>(it.col())] = true;
+        }
+      }
+    }
+    for (Eigen::Index c = 0; c < p.cols(); c += 3) ASSERT_TRUE(seen[c]) << "coarse column " << c;
+    const Eigen::VectorXd fine = p * coarse;
+    int near_pin = 0;
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      if (!f.ctx.is_free(s)) {
+        EXPECT_EQ(p.row(3 * s).nonZeros(), 0) << "slot " << s;
+        continue;
+      }
+      double row_sum = 0.0;
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(p, 3 * s); it; ++it) {
+        row_sum += it.value();
+      }
+      const Eigen::Vector3d field(mesh.grid_i(s), 2.0 * mesh.grid_j(s),
+                                  mesh.grid_i(s) - mesh.grid_j(s));
+      if (row_sum < 1.0 - 1e-12) {
+        EXPECT_TRUE(pins) << "slot " << s << " lost weight without a pin";
+        ++near_pin;
+        continue;
+      }
+      EXPECT_NEAR(row_sum, 1.0, 1e-12) << "slot " << s;
+      EXPECT_LT((fine.segment<3>(3 * s) - field).norm(), 1e-12) << "slot " << s;
+    }
+    EXPECT_EQ(near_pin > 0, pins);
+  }
+}
+
+TEST(Multigrid, CoarseOperatorIsTheGalerkinProductComputedDensely) {
+  for (unsigned seed : {1u, 2u}) {
+    Fixture f(graded_cloth(true));
+    f.grade();
+    testing::randomise_state(f.sim, seed);
+    f.assemble();
+    const kernels::MultigridPreconditioner& mg = *f.objective.multigrid();
+    const std::int64_t slots = f.sim.mesh().slot_count();
+    std::vector<std::int64_t> unknown(static_cast<std::size_t>(slots), -1);
+    for (std::int64_t s = 0; s < slots; ++s) unknown[s] = f.ctx.is_free(s) ? s : -1;
+    const Eigen::MatrixXd a =
+        Eigen::MatrixXd(f.objective.model_hessian()->matrix(f.ctx, unknown, slots));
+    const Eigen::MatrixXd p = Eigen::MatrixXd(mg.prolongation());
+    const Eigen::MatrixXd expected = p.transpose() * a * p;
+    const Eigen::MatrixXd coarse = Eigen::MatrixXd(mg.coarse_operator());
+    ASSERT_EQ(coarse.rows(), expected.rows());
+    EXPECT_LE((coarse - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+    // And the fine matrix is the matrix-free H the PCG multiplies with.
+    const std::vector<double> v = f.random_free(seed);
+    const std::vector<double> hv = f.product(v);
+    const Eigen::VectorXd av = a * Eigen::Map<const Eigen::VectorXd>(v.data(), v.size());
+    double worst = 0.0, scale = 0.0;
+    for (std::int64_t s = 0; s < slots; ++s) {
+      if (!f.ctx.is_free(s)) continue;
+      worst = std::max(worst, (av.segment<3>(3 * s) - Eigen::Vector3d(&hv[3 * s])).norm());
+      scale = std::max(scale, Eigen::Vector3d(&hv[3 * s]).norm());
+    }
+    EXPECT_LT(worst, 1e-12 * scale);
+  }
+}
+
+TEST(Multigrid, TheCycleIsSymmetricPositiveDefinite) {
+  for (unsigned seed : {3u, 4u, 5u}) {
+    Fixture f(graded_cloth(true));
+    f.grade();
+    testing::randomise_state(f.sim, seed);
+    f.assemble();
+    ASSERT_EQ(f.objective.multigrid()->coarse_failures(), 0);
+    for (unsigned k = 0; k < 4; ++k) {
+      const std::vector<double> x = f.random_free(100 * seed + 2 * k);
+      const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
+      const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
+      const double xby = dot(x, by), ybx = dot(y, bx);
+      EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
+      EXPECT_GT(dot(x, bx), 0.0);
+      EXPECT_GT(dot(y, by), 0.0);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace clothbench
