@@ -170,7 +170,7 @@ std::string format_markdown(const json& document) {
           cell(t["min"]), cell(t["max"]), cell(row["derived"]["speedup"], "{:.2f}"),
           cell(row["derived"]["efficiency"], "{:.2f}"),
           cell(row["derived"]["speedup_vs_best_1thread"], "{:.2f}"),
-          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} checks)", failures));
+          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} check{})", failures, failures == 1 ? "" : "s"));
     }
   }
   out << "\nSeq. overhead: time outside parallel loops (CG scalars, list rebuilds). Para. "

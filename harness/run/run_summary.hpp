@@ -10,20 +10,11 @@
 #include <vector>
 
 #include "harness/output/vtk_writer.hpp"
+#include "harness/run/verify.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
 
 namespace clothbench::harness {
-
-/// Checks a run makes on its own result before any time is reported.
-struct Verification {
-  bool passed = true;
-  std::vector<std::string> failures;  ///< one line per failed check
-  void fail(std::string why) {
-    passed = false;
-    failures.push_back(std::move(why));
-  }
-};
 
 /// One step's line of the run record.
 struct StepRecord {

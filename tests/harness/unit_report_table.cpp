@@ -95,7 +95,7 @@ TEST(ReportTable, MarkdownGolden) {
       "| 2 | 0.5 | 0.025 | 0.125 | 2.5 | 6.000 | 5.940-6.120 | 1.67 | 0.83 | 1.33 | PASSED |\n";
   EXPECT_NE(md.find(expected_static), std::string::npos) << md;
   EXPECT_NE(md.find("| 4 (oversubscribed) | 0.5 | 0.025 | 0.125 | 2.5 | 4.000 | 3.960-4.080 | - | - "
-                    "| - | FAILED (1 checks) |"),
+                    "| - | FAILED (1 check) |"),
             std::string::npos)
       << md;
   // Scheduler order follows settings.schedulers, not row order.
