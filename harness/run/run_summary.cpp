@@ -172,6 +172,13 @@ void print_summary(const RunSummary& s) {
              static_cast<double>(s.peak_resident_bytes) / (1 << 20));
   fmt::print("  wall time                {:.3f} s ({} threads{})\n", s.wall_seconds, s.threads,
              s.oversubscribed ? ", oversubscribed" : "");
+  const Disturbance& disturbance = s.disturbance;
+  fmt::print("  timing                   {} (CPU {:.0f} % of wall x {} cores, {} involuntary "
+             "context switches, load {:.2f} -> {:.2f}, OMP_WAIT_POLICY {})\n",
+             disturbance.disturbed ? "DISTURBED" : "undisturbed", 100.0 * disturbance.cpu_share,
+             disturbance.usable_cores, disturbance.involuntary_switches, disturbance.load_before,
+             disturbance.load_after, disturbance.wait_policy);
+  for (const std::string& r : disturbance.reasons) fmt::print("  disturbed: {}\n", r);
   for (const std::string& f : s.verification.failures) fmt::print("  check failed: {}\n", f);
   fmt::print("Verification: {}\n", s.verification.passed ? "PASSED" : "FAILED");
 }
@@ -202,6 +209,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"threads", s.threads},
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
+      {"disturbance", disturbance_json(s.disturbance)},
       {"average_minimised_cost", num(s.average_minimised_cost)},
       {"solver", {{"formulation", kernels::to_string(scene.simulation.solver.formulation)},
                   {"gradient", kernels::to_string(scene.simulation.solver.gradient)},

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "harness/output/vtk_writer.hpp"
+#include "harness/run/disturbance.hpp"
 #include "harness/run/verify.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
@@ -62,6 +63,8 @@ struct RunSummary {
   std::string non_finite;
   int non_finite_step = 0;
   Verification verification;
+  /// Whether other work on the machine disturbed the run (set by `clothbench run`).
+  Disturbance disturbance;
 };
 
 /// Called after every finite step with the simulation and the step's record; returning false

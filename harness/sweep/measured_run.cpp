@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "harness/run/disturbance.hpp"
 #include "harness/run/verify.hpp"
 
 namespace clothbench::harness {
@@ -51,6 +52,7 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
   double step_seconds = 0.0;
   bool finite_cost = true;
   simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
+  const ResourceSample before = sample_resources();
   const double start = kernels::monotonic_seconds();
   for (int k = 0; k < steps && finite_cost; ++k) {
     const kernels::StepReport report = simulation.step(driver, instrumentation, timer);
@@ -61,6 +63,8 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
     ++run.steps_done;
   }
   const double wall = kernels::monotonic_seconds() - start;
+  run.disturbance = assess_disturbance(before, sample_resources(), omp_get_max_threads(),
+                                       omp_get_num_procs(), omp_wait_policy());
   run.accounting = account(times, wall, step_seconds);
   if (timer == nullptr) {
     run.accounting = OverheadAccounting{};

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/run/disturbance.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/run/verify.hpp"
 #include "kernels/loop_runner.hpp"
@@ -49,6 +50,9 @@ struct MeasuredRun {
   bool bit_identical = true;  ///< final state bytes equal the reference's
   std::string state_digest;   ///< FNV-1a 64 of state_bytes()
   Verification verification;
+  /// Whether other work on the machine disturbed the timed steps (disturbance.hpp).
+  Disturbance disturbance;
+  int attempts = 1;  ///< runs made for this repetition (1 + disturbed runs re-done)
 };
 
 /// Runs `steps` steps of `simulation` (fresh, thread count already set with
