@@ -11,7 +11,12 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <climits>
+#include <cstdlib>
+#include <cstring>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
@@ -21,6 +26,7 @@
 #include "harness/report/sweep_table.hpp"
 #include "harness/experiment/experiment.hpp"
 #include "harness/run/run_scene.hpp"
+#include "harness/run/disturbance.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/stress/stress_command.hpp"
@@ -158,6 +164,18 @@ int main(int argc, char** argv) {
                    "core: pin thread k to core k (hwloc); none: leave it to OMP_PROC_BIND")
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "core"}));
+  sweep_command
+      ->add_option("--retries", sweep.retries,
+                   "Re-runs of a repetition that other work on the machine disturbed (0-100); a "
+                   "row whose runs stay disturbed is labelled DISTURBED and gets no speed-up")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  std::string sweep_wait_policy;
+  sweep_command
+      ->add_option("--wait-policy", sweep_wait_policy,
+                   "OMP_WAIT_POLICY of every run: passive (waiting threads sleep; use on a shared "
+                   "node) or active (they spin); default: the environment's")
+      ->check(CLI::IsMember({"passive", "active"}));
   sweep_command->add_option("--out", sweep.output_dir, "Output directory")->capture_default_str();
   sweep_command->add_flag("--resume", sweep.resume, "Skip rows already in OUT/sweep.json");
   sweep_command->add_flag("--quiet", sweep.quiet, "No progress bar and no per-row lines");
@@ -229,6 +247,19 @@ int main(int argc, char** argv) {
     if (*check_command) return check_scene(check_file);
     if (stress_command.selected()) return stress_command.run(argc, argv);
     if (*sweep_command) {
+      // The OpenMP runtime reads OMP_WAIT_POLICY when it starts (libgomp: when the program
+      // is loaded), so a policy that differs from the environment's restarts the command with
+      // it set; the restarted process finds it set and goes on.
+      if (!sweep_wait_policy.empty() &&
+          clothbench::harness::omp_wait_policy() != sweep_wait_policy) {
+        setenv("OMP_WAIT_POLICY", sweep_wait_policy.c_str(), 1);  // NOLINT(concurrency-mt-unsafe)
+        execv("/proc/self/exe", argv);
+        std::fprintf(stderr,
+                     "clothbench sweep: --wait-policy: could not restart with "
+                     "OMP_WAIT_POLICY=%s: %s\n",
+                     sweep_wait_policy.c_str(), std::strerror(errno));
+        return 1;
+      }
       try {
         sweep.schedulers = clothbench::harness::split_list(sweep_schedulers, "--schedulers");
         if (!sweep_threads.empty()) {

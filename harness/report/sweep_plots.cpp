@@ -1,5 +1,6 @@
 // gnuplot figures of a sweep (see sweep_plots.hpp).
 #include "harness/report/sweep_plots.hpp"
+#include "harness/report/sweep_table.hpp"
 
 #include <fmt/core.h>
 
@@ -102,12 +103,20 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
   if (groups.empty()) return outcome;
   int max_threads = 1;
   std::ostringstream data;
+  std::ostringstream disturbed_labels;  // gnuplot labels on the time plot's disturbed points
+  int label_number = 10;
   for (const auto& [name, rows] : groups) {
     data << "# " << name << "\n# threads time_median time_min time_max speedup\n";
     for (const json* r : rows) {
       const json& row = *r;
       max_threads = std::max(max_threads, row["threads"].get<int>());
       const bool ok = row["verification"]["passed"].get<bool>();
+      if (ok && row_disturbed(row)) {
+        disturbed_labels << fmt::format(
+            "set label {} 'DISTURBED' at {}, {:.9g} rotate by 90 left offset 0,1 font ',8' "
+            "tc 'red'\n",
+            label_number++, row["threads"].get<int>(), row["time_seconds"]["median"].get<double>());
+      }
       data << fmt::format("{} {} {} {} {}\n", row["threads"].get<int>(),
                           number_or_missing(ok ? row["time_seconds"]["median"] : json()),
                           number_or_missing(row["time_seconds"]["min"]),
@@ -136,13 +145,16 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
                       "set label 1 'hardware threads' at {0}, graph 0.95 right offset -0.5,0\n",
                       pus);
   }
-  gp << "set title 'Time vs threads'\nset ylabel 'time [s]'\nset yrange [0:*]\nplot ";
+  gp << disturbed_labels.str();
+  gp << "set title 'Time vs threads (DISTURBED: other work took the cores; no speed-up shown)'\n"
+        "set ylabel 'time [s]'\nset yrange [0:*]\nplot ";
   for (std::size_t i = 0; i < groups.size(); ++i) {
     gp << fmt::format(
         "{}'fig12.dat' index {} using 1:2:3:4 with yerrorlines lt {} lw 2 pt {} title {}",
         i ? ", \\\n     " : "", i, i + 1, 5 + 2 * static_cast<int>(i % 4),
         gnuplot_quote(groups[i].first));
   }
+  for (int k = 10; k < label_number; ++k) gp << fmt::format("\nunset label {}", k);
   gp << "\nset title 'Speed-up vs threads (against each scheduler''s 1-thread time)'\n"
         "set ylabel 'speed-up'\nset key top left\n";
   gp << fmt::format("set yrange [0:{}]\n", max_threads * 1.15);
@@ -164,8 +176,8 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
   for (std::size_t g = 0; g < groups.size(); ++g) {
     if (g > 0) bars << "\"\" 0 0 0 0\n";
     for (const json* r : groups[g].second) {
-      bars << fmt::format("\"{} {}t\" {:.9g} {:.9g} {:.9g} {:.9g}\n", groups[g].first,
-                          (*r)["threads"].get<int>(),
+      bars << fmt::format("\"{} {}t{}\" {:.9g} {:.9g} {:.9g} {:.9g}\n", groups[g].first,
+                          (*r)["threads"].get<int>(), row_disturbed(*r) ? " DISTURBED" : "",
                           accounting_value(*r, "sequential_overhead_seconds"),
                           accounting_value(*r, "parallel_overhead_seconds"),
                           accounting_value(*r, "load_imbalance_seconds"),

@@ -23,6 +23,15 @@ namespace {
 bool passed(const json& row) { return row["verification"].value("passed", false); }
 double median_time(const json& row) { return row["time_seconds"]["median"].get<double>(); }
 
+/// "clean", "DISTURBED (k of n runs)", or "-" for a row of a document written before
+/// disturbance was measured.
+std::string timing_label(const json& row) {
+  if (!row.contains("disturbance")) return "-";
+  const json& d = row["disturbance"];
+  if (!d.value("disturbed", false)) return "clean";
+  return fmt::format("DISTURBED ({} of {} runs)", d.value("disturbed_runs", 0), d.value("runs", 0));
+}
+
 /// Rows grouped per scheduler (order of settings.schedulers, then first appearance),
 /// each group sorted by thread count.
 std::vector<std::vector<const json*>> grouped_rows(const json& document) {
@@ -92,11 +101,15 @@ std::string csv_cell(const json& value) {
   return text;
 }
 
+bool row_disturbed(const json& row) {
+  return row.contains("disturbance") && row["disturbance"].value("disturbed", false);
+}
+
 void add_derived(json& document) {
   std::map<std::string, double> own_baseline;
   double best = std::numeric_limits<double>::infinity();
   for (const json& row : document["rows"]) {
-    if (row["threads"] == 1 && passed(row)) {
+    if (row["threads"] == 1 && passed(row) && !row_disturbed(row)) {
       own_baseline[row["scheduler_canonical"]] = median_time(row);
       best = std::min(best, median_time(row));
     }
@@ -108,7 +121,7 @@ void add_derived(json& document) {
          {"speedup_vs_best_1thread", nullptr},
          {"efficiency_vs_best_1thread", nullptr}};
     const double time = median_time(row);
-    if (!passed(row) || !(time > 0.0)) continue;
+    if (!passed(row) || row_disturbed(row) || !(time > 0.0)) continue;
     const double threads = row["threads"].get<double>();
     const auto own = own_baseline.find(row["scheduler_canonical"]);
     if (own != own_baseline.end()) {
@@ -130,11 +143,14 @@ std::string format_markdown(const json& document) {
   out << fmt::format("# clothbench sweep: {}\n\n", scene["name"].get<std::string>());
   out << fmt::format(
       "Scene `{}` (hash {}), {} steps; time = median of {} runs (min-max shown), after a "
-      "{}-step warm-up; instrumentation `{}`; binding `{}`{}.\n",
+      "{}-step warm-up; instrumentation `{}`; binding `{}`; OMP_WAIT_POLICY `{}`; retries of "
+      "a disturbed run {}{}.\n",
       scene["file"].get<std::string>(), scene["hash"].get<std::string>(),
       settings["steps"].get<int>(), settings["repeat"].get<int>(),
       settings.value("warmup_steps", 0), settings["instrument"].get<std::string>(),
-      settings.value("bind", "none"), document.value("complete", false) ? "" : " (INCOMPLETE sweep)");
+      settings.value("bind", "none"), settings.value("omp_wait_policy", "not recorded"),
+      settings.contains("retries") ? std::to_string(settings["retries"].get<int>()) : "-",
+      document.value("complete", false) ? "" : " (INCOMPLETE sweep)");
   if (machine.is_object() && machine.contains("cpu")) {
     const json& load = machine.value("load_average", json::array());
     out << fmt::format("Machine: {} ({} cores, {} PUs), {} {}, {}{}.\n",
@@ -154,14 +170,14 @@ std::string format_markdown(const json& document) {
     }
     out << "| Threads | Seq. overhead [s] | Para. overhead [s] | Imbalance [s] | Imbalance [%] "
            "| Time [s] | Min-max [s] | Speed-up | Efficiency | Speed-up vs best 1-thread "
-           "| Verification |\n";
-    out << "|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:--|\n";
+           "| Verification | Timing |\n";
+    out << "|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:--|:--|\n";
     for (const json* r : group) {
       const json& row = *r;
       const json& t = row["time_seconds"];
       const std::size_t failures = row["verification"]["failures"].size();
       out << fmt::format(
-          "| {}{} | {} | {} | {} | {} | {} | {}-{} | {} | {} | {} | {} |\n",
+          "| {}{} | {} | {} | {} | {} | {} | {}-{} | {} | {} | {} | {} | {} |\n",
           row["threads"].get<int>(), row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
           cell(accounting_field(row, "sequential_overhead_seconds")),
           cell(accounting_field(row, "parallel_overhead_seconds")),
@@ -170,7 +186,8 @@ std::string format_markdown(const json& document) {
           cell(t["min"]), cell(t["max"]), cell(row["derived"]["speedup"], "{:.2f}"),
           cell(row["derived"]["efficiency"], "{:.2f}"),
           cell(row["derived"]["speedup_vs_best_1thread"], "{:.2f}"),
-          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} checks)", failures));
+          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} check{})", failures, failures == 1 ? "" : "s"),
+          timing_label(row));
     }
   }
   out << "\nSeq. overhead: time outside parallel loops (CG scalars, list rebuilds). Para. "
@@ -178,7 +195,10 @@ std::string format_markdown(const json& document) {
          "dispatch). Imbalance: busiest minus mean thread work; [%] = busiest/mean - 1. All "
          "three are summed over the loops of the median instrumented run. Time: uninstrumented "
          "wall time. Speed-up: against the same scheduler's 1-thread time; a FAILED run shows "
-         "no speed-up.\n";
+         "no speed-up. Timing: DISTURBED when some of the row's runs were still disturbed by "
+         "other work on the machine after their retries (another process's CPU time or "
+         "preemptions, see sweep.json's disturbance records); a DISTURBED row, or one whose "
+         "1-thread row is, shows no speed-up.\n";
   return out.str();
 }
 
@@ -188,7 +208,7 @@ std::string format_csv(const json& document) {
          "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
          "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
          "instrumentation_cost_s,speedup,efficiency,speedup_vs_best_1thread,"
-         "efficiency_vs_best_1thread,verification\n";
+         "efficiency_vs_best_1thread,verification,timing\n";
   for (const auto& group : grouped_rows(document)) {
     for (const json* r : group) {
       const json& row = *r;
@@ -208,6 +228,7 @@ std::string format_csv(const json& document) {
         cells.push_back(d[k]);
       }
       cells.emplace_back(passed(row) ? "PASSED" : "FAILED");
+      cells.emplace_back(timing_label(row));
       for (std::size_t i = 0; i < cells.size(); ++i) {
         out << (i ? "," : "") << csv_cell(cells[i]);
       }

@@ -11,9 +11,13 @@ namespace clothbench::harness {
 
 /// Fills every row's `derived` block: speedup and efficiency against the 1-thread row of
 /// the same scheduler, and against the fastest passed 1-thread row of any scheduler.
-/// A row that failed verification, or whose baseline failed or is missing, gets nulls:
-/// a failed run never appears as a speed-up.
+/// A row that failed verification or is disturbed (row_disturbed), or whose baseline failed,
+/// is disturbed or is missing, gets nulls: such a run never appears as a speed-up.
 void add_derived(nlohmann::json& document);
+
+/// True when the row's runs stayed disturbed by other work (its `disturbance` block; rows of
+/// older documents without one are not).
+bool row_disturbed(const nlohmann::json& row);
 
 /// Markdown: a heading and context paragraph, then one Table-2 style table per scheduler
 /// (in the order of settings.schedulers, threads ascending) and the column definitions.

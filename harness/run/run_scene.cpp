@@ -123,7 +123,10 @@ int run_scene(const RunOptions& options) {
              oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
   if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());
 
+  const ResourceSample before = sample_resources();
   RunSummary summary = simulate(simulation, *driver, scene.steps, options.quiet);
+  summary.disturbance = assess_disturbance(before, sample_resources(), threads,
+                                           hardware_threads(), omp_wait_policy());
   summary.threads = threads;
   summary.oversubscribed = oversubscribed;
   summary.peak_resident_bytes = peak_resident_bytes();

@@ -10,20 +10,12 @@
 #include <vector>
 
 #include "harness/output/vtk_writer.hpp"
+#include "harness/run/disturbance.hpp"
+#include "harness/run/verify.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
 
 namespace clothbench::harness {
-
-/// Checks a run makes on its own result before any time is reported.
-struct Verification {
-  bool passed = true;
-  std::vector<std::string> failures;  ///< one line per failed check
-  void fail(std::string why) {
-    passed = false;
-    failures.push_back(std::move(why));
-  }
-};
 
 /// One step's line of the run record.
 struct StepRecord {
@@ -71,6 +63,8 @@ struct RunSummary {
   std::string non_finite;
   int non_finite_step = 0;
   Verification verification;
+  /// Whether other work on the machine disturbed the run (set by `clothbench run`).
+  Disturbance disturbance;
 };
 
 /// Called after every finite step with the simulation and the step's record; returning false

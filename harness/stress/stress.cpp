@@ -108,7 +108,9 @@ int run_stress(const StressOptions& options) {
       {"openmp_environment", openmp_environment()},
       {"criteria",
        {{"mass_relative_tolerance", kMassTolerance},
-        {"penetration", "particles and interpolated surface less than [contact] distance_m deep"},
+        {"penetration",
+         "no active particle inside an obstacle (as every run); the interpolated surface less "
+         "than [contact] distance_m deep"},
         {"cost_growth_factor", kUnboundedGrowthFactor},
         {"cost_bound",
          "reject_residual squared: the squared RMS residual above which the kernel rejects a "

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/run/verify.hpp"
 #include "harness/stress/stress_matrix.hpp"
 #include "harness/stress/stress_metrics.hpp"
 #include "schedulers/loop_driver.hpp"
@@ -59,10 +60,10 @@ struct StressCellResult {
 
 /// Simulates `cell` with `driver` on the current OpenMP thread count, checking the state after
 /// every step. `keep_going` is asked after every step; when it returns false the cell is
-/// abandoned and nullopt returned. A cell passes when its state stays finite, the mass stays
-/// exact (relative drift <= 1e-12), neither the particles nor the interpolated surface ever
-/// reach the contact distance inside an obstacle, no ghost leaves its coarse edge, and the
-/// step cost stays bounded (judge_stress_cell). When the state stops being finite and
+/// abandoned and nullopt returned. A cell passes when every step's state passes the one
+/// verifier (verify.hpp: finite, mass exact to kMassTolerance, no crack, no particle inside an
+/// obstacle), the interpolated surface never reaches the contact distance inside an obstacle,
+/// and the step cost stays bounded (judge_stress_cell). When the state stops being finite and
 /// `snapshot_dir` is not empty, the state at that step is written there as
 /// `<cell name>-non_finite_snapshot.json` and `.vtk` (write_non_finite_snapshot).
 std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
@@ -70,14 +71,12 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
                                                 const std::function<bool()>& keep_going,
                                                 const std::filesystem::path& snapshot_dir = {});
 
-/// Sets `passed` and `failures` from the figures of `result`: the state stayed finite, the
-/// mass exact, both penetrations below the contact distance, no ghost off its edge, and the
-/// step cost bounded - it does not grow without bound (Trend::growing) and its last-quarter
+/// Sets `passed` and `failures` from the figures of `result`: the worst figures of the run
+/// pass judge_state (finite, mass exact, no ghost off its edge, no particle inside an
+/// obstacle); on top, the interpolated surface's penetration stays below the contact
+/// distance and the step cost bounded - it does not grow without bound (Trend::growing) and its last-quarter
 /// mean stays at or below cost_bound (above it the steps were accepted only because their
 /// halvings ran out: the minimiser no longer controls the step).
 void judge_stress_cell(StressCellResult& result);
-
-/// Relative mass drift a passing cell may show (rounding of the compensated sum).
-inline constexpr double kMassTolerance = 1e-12;
 
 }  // namespace clothbench::harness

@@ -172,9 +172,10 @@ std::string stress_markdown(const json& document) {
   }
   out << "\nColumns: *steps* completed / planned; *first non-finite*: the step and the value "
          "where the state stopped being finite; *max penetration*: deepest active particle and "
-         "deepest point of the interpolated surface inside an obstacle over the run (must stay "
-         "below the contact distance); *cost trend*: mean of the steps' final squared RMS "
-         "residual over the last quarter of the run divided by that of the first quarter, "
+         "deepest point of the interpolated surface inside an obstacle over the run (a particle "
+         "must stay outside, as in every run; the surface below the contact distance); *cost "
+         "trend*: mean of the steps' final squared RMS residual over the last quarter of the "
+         "run divided by that of the first quarter, "
          "\"(grows)\" when it grows without bound (last quarter above 10x the larger of the first "
          "quarter and the step-rejection level, reject_residual squared, and not falling), "
          "\"(above bound)\" when the last quarter's mean is above that level (its steps were "

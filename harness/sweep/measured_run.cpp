@@ -5,33 +5,12 @@
 #include <omp.h>
 
 #include <cmath>
-#include <cstring>
 #include <numeric>
 
-#include "harness/scene/scene.hpp"
+#include "harness/run/disturbance.hpp"
+#include "harness/run/verify.hpp"
 
 namespace clothbench::harness {
-
-namespace {
-
-template <class T>
-void append_bytes(std::string& out, const std::vector<T>& values) {
-  const std::size_t bytes = values.size() * sizeof(T);
-  const std::size_t at = out.size();
-  out.resize(at + bytes);
-  if (bytes > 0) std::memcpy(out.data() + at, values.data(), bytes);
-}
-
-}  // namespace
-
-std::string state_bytes(const kernels::Simulation& simulation) {
-  const kernels::ClothState& state = simulation.state();
-  std::string bytes;
-  append_bytes(bytes, state.position);
-  append_bytes(bytes, state.edge_force);
-  append_bytes(bytes, state.triple_moment);
-  return bytes;
-}
 
 OverheadAccounting account(const kernels::LoopTimes& times, double wall_seconds,
                            double step_seconds) {
@@ -73,6 +52,7 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
   double step_seconds = 0.0;
   bool finite_cost = true;
   simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
+  const ResourceSample before = sample_resources();
   const double start = kernels::monotonic_seconds();
   for (int k = 0; k < steps && finite_cost; ++k) {
     const kernels::StepReport report = simulation.step(driver, instrumentation, timer);
@@ -83,6 +63,8 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
     ++run.steps_done;
   }
   const double wall = kernels::monotonic_seconds() - start;
+  run.disturbance = assess_disturbance(before, sample_resources(), omp_get_max_threads(),
+                                       omp_get_num_procs(), omp_wait_policy());
   run.accounting = account(times, wall, step_seconds);
   if (timer == nullptr) {
     run.accounting = OverheadAccounting{};
@@ -91,35 +73,17 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
     run.accounting.unaccounted = wall - step_seconds;
   }
 
-  // Verification (HPCG style: a run reports a time only when its result is right).
-  const kernels::StateDiagnostics d = simulation.diagnostics();
-  const kernels::ClothConfig& cloth = simulation.config().cloth;
-  const double expected = simulation.mesh().areal_density() * cloth.size_i * cloth.size_j;
-  run.mass_error = std::abs(d.total_mass - expected) / expected;
-  run.finite = d.finite && finite_cost;
+  // Verification (HPCG style: a run reports a time only when its result is right), by the
+  // one verifier every command uses (verify.hpp).
   if (!finite_cost) {
     run.verification.fail(fmt::format("step {}: non-finite cost", run.steps_done));
   }
-  if (!d.finite) run.verification.fail("non-finite final state");
-  if (!(run.mass_error <= 1e-12)) {
-    run.verification.fail(fmt::format("mass {:.15g} kg differs from {:.15g} kg (relative {:.3g})",
-                                      d.total_mass, expected, run.mass_error));
-  }
-  const std::string bytes = state_bytes(simulation);
-  run.state_digest = fnv1a64_hex(bytes);
-  if (reference_bytes != nullptr) {
-    run.bit_identical = bytes.size() == reference_bytes->size() &&
-                        std::memcmp(bytes.data(), reference_bytes->data(), bytes.size()) == 0;
-    if (!run.bit_identical) {
-      std::size_t first = 0;
-      const std::size_t common = std::min(bytes.size(), reference_bytes->size());
-      while (first < common && bytes[first] == (*reference_bytes)[first]) ++first;
-      run.verification.fail(fmt::format(
-          "final state differs from the 1-thread reference (digest {} vs {}, first differing "
-          "byte {} of {})",
-          run.state_digest, fnv1a64_hex(*reference_bytes), first, bytes.size()));
-    }
-  }
+  const StateFigures figures =
+      verify_state(simulation, simulation.steps_done(), run.verification, reference_bytes);
+  run.mass_error = figures.mass_error;
+  run.finite = figures.finite && finite_cost;
+  run.state_digest = figures.state_digest;
+  run.bit_identical = !figures.reference || figures.reference->identical;
   return run;
 }
 

@@ -6,7 +6,9 @@
 #include <string>
 #include <vector>
 
+#include "harness/run/disturbance.hpp"
 #include "harness/run/run_summary.hpp"
+#include "harness/run/verify.hpp"
 #include "kernels/loop_runner.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/loop_driver.hpp"
@@ -37,10 +39,6 @@ struct OverheadAccounting {
   std::vector<double> thread_work;  ///< per thread, seconds
 };
 
-/// The raw bytes of the final state that must be identical for every scheduler and thread
-/// count: positions, edge forces and triple moments (MODEL.md section 7, Determinism).
-std::string state_bytes(const kernels::Simulation& simulation);
-
 /// One measured run.
 struct MeasuredRun {
   OverheadAccounting accounting;  ///< timings only meaningful when instrumented (else wall)
@@ -52,12 +50,16 @@ struct MeasuredRun {
   bool bit_identical = true;  ///< final state bytes equal the reference's
   std::string state_digest;   ///< FNV-1a 64 of state_bytes()
   Verification verification;
+  /// Whether other work on the machine disturbed the timed steps (disturbance.hpp).
+  Disturbance disturbance;
+  int attempts = 1;  ///< runs made for this repetition (1 + disturbed runs re-done)
 };
 
 /// Runs `steps` steps of `simulation` (fresh, thread count already set with
-/// omp_set_num_threads) through `driver`, timing with `instrumentation`, then verifies:
-/// finite state and cost, mass conservation (relative error <= 1e-12), and - when
-/// `reference_bytes` is not null - bit-identity of state_bytes() to it.
+/// omp_set_num_threads) through `driver`, timing with `instrumentation`, then verifies the
+/// final state with the one verifier (verify_state: finite, mass, no crack, no particle
+/// inside an obstacle, and - when `reference_bytes` is not null - bit-identity of
+/// state_bytes() to it) and the steps' costs finite.
 MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver& driver,
                         int steps, kernels::Instrumentation instrumentation,
                         const std::string* reference_bytes);

@@ -13,6 +13,7 @@
 #include "harness/output/atomic_file.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/report/sweep_table.hpp"
+#include "harness/run/disturbance.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/sweep/measured_run.hpp"
@@ -110,13 +111,20 @@ std::string row_line(const json& row) {
                         a["parallel_overhead_seconds"].get<double>(),
                         a["load_imbalance_seconds"].get<double>());
   }
-  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}\n",
+  const json& disturbance = row["disturbance"];
+  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
                      row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
                      row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
                      row["time_seconds"]["median"].get<double>(),
                      row["time_seconds"]["min"].get<double>(),
                      row["time_seconds"]["max"].get<double>(), parts,
-                     row["verification"]["passed"].get<bool>() ? "PASSED" : "FAILED");
+                     row["verification"]["passed"].get<bool>() ? "PASSED" : "FAILED",
+                     disturbance["disturbed"].get<bool>()
+                         ? fmt::format("  DISTURBED ({} of {} runs, {} re-run)",
+                                       disturbance["disturbed_runs"].get<int>(),
+                                       disturbance["runs"].get<int>(),
+                                       disturbance["reruns"].get<int>())
+                         : std::string());
 }
 
 }  // namespace
@@ -128,6 +136,7 @@ int run_sweep(const SweepOptions& options) {
   check_memory(scene);
   if (options.schedulers.empty()) throw std::invalid_argument("--schedulers: no scheduler given");
   if (options.repeat < 1) throw std::invalid_argument("--repeat: must be at least 1");
+  if (options.retries < 0) throw std::invalid_argument("--retries: must be at least 0");
   std::vector<GridScheduler> grid;
   for (const std::string& spec : options.schedulers) {
     std::unique_ptr<schedulers::LoopDriver> driver;
@@ -152,9 +161,10 @@ int run_sweep(const SweepOptions& options) {
   // The reference: the first scheduler on 1 thread, uninstrumented and uncounted.
   if (!options.quiet) {
     fmt::print("clothbench sweep: {} ({}), {} steps, {} schedulers x {} thread counts, "
-               "repeat {}, instrument {}, bind {}\n",
+               "repeat {} (retries {}), OMP_WAIT_POLICY {}, instrument {}, bind {}\n",
                scene.name, scene.file.string(), scene.steps, grid.size(), threads.size(),
-               options.repeat, to_string(options.instrument), to_string(options.bind));
+               options.repeat, options.retries, omp_wait_policy(),
+               to_string(options.instrument), to_string(options.bind));
     std::fflush(stdout);
   }
   // From here on Ctrl-C / SIGTERM stop the sweep after the run in progress (stop_request.hpp).
@@ -228,17 +238,29 @@ int run_sweep(const SweepOptions& options) {
       if (stop.signal() != 0) return std::nullopt;
     }
     progress.advance(options.warmup_steps, label);
-    std::vector<MeasuredRun> plain, timed;
-    for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
-      plain.push_back(fresh_run(scene, *driver, n, scene.steps, kernels::Instrumentation::off,
-                                &reference_bytes));
+    // One repetition at `level`, re-run while other work disturbed it (up to --retries
+    // times); nullopt when a stop was asked for.
+    auto repetition = [&](kernels::Instrumentation level) -> std::optional<MeasuredRun> {
+      MeasuredRun run = fresh_run(scene, *driver, n, scene.steps, level, &reference_bytes);
+      for (int retry = 0; retry < options.retries && run.disturbance.disturbed; ++retry) {
+        if (stop.signal() != 0) return std::nullopt;
+        const int attempts = run.attempts + 1;
+        run = fresh_run(scene, *driver, n, scene.steps, level, &reference_bytes);
+        run.attempts = attempts;
+      }
       if (stop.signal() != 0) return std::nullopt;
       progress.advance(scene.steps, label);
+      return run;
+    };
+    std::vector<MeasuredRun> plain, timed;
+    for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
+      std::optional<MeasuredRun> run = repetition(kernels::Instrumentation::off);
+      if (!run) return std::nullopt;
+      plain.push_back(std::move(*run));
       if (instrumented) {
-        timed.push_back(
-            fresh_run(scene, *driver, n, scene.steps, options.instrument, &reference_bytes));
-        if (stop.signal() != 0) return std::nullopt;
-        progress.advance(scene.steps, label);
+        run = repetition(options.instrument);
+        if (!run) return std::nullopt;
+        timed.push_back(std::move(*run));
       }
     }
     json binding = {{"mode", to_string(options.bind)},

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <ctime>
 #include <numeric>
+
+#include "harness/run/disturbance.hpp"
 #include <stdexcept>
 
 namespace clothbench::harness {
@@ -52,6 +54,26 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
   for (const MeasuredRun& r : plain) plain_times.push_back(r.accounting.wall_seconds);
   for (const MeasuredRun& r : timed) timed_times.push_back(r.accounting.wall_seconds);
 
+  // Disturbance: every counted run's record; the row is DISTURBED when any of them stayed
+  // disturbed after its retries.
+  json runs = json::array();
+  int disturbed_runs = 0, reruns = 0;
+  for (const auto* list : {&plain, &timed}) {
+    for (const MeasuredRun& r : *list) {
+      json record = disturbance_json(r.disturbance);
+      record["instrumented"] = list == &timed;
+      record["attempts"] = r.attempts;
+      runs.push_back(std::move(record));
+      disturbed_runs += r.disturbance.disturbed ? 1 : 0;
+      reruns += r.attempts - 1;
+    }
+  }
+  json disturbance = {{"disturbed", disturbed_runs > 0},
+                      {"disturbed_runs", disturbed_runs},
+                      {"runs", runs.size()},
+                      {"reruns", reruns},
+                      {"records", std::move(runs)}};
+
   json failures = json::array();
   bool passed = true, identical = true;
   double max_mass_error = 0.0;
@@ -96,6 +118,7 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
                 {"bit_identical", identical},
                 {"state_digest", digest},
                 {"max_mass_error", max_mass_error}}},
+              {"disturbance", std::move(disturbance)},
               {"cg_iterations", iterations},
               {"steps", steps},
               {"binding", std::move(binding)},
@@ -116,6 +139,8 @@ json settings_json(const SweepOptions& options, const std::vector<int>& threads,
           {"steps", steps},
           {"instrument", to_string(options.instrument)},
           {"bind", to_string(options.bind)},
+          {"retries", options.retries},
+          {"omp_wait_policy", omp_wait_policy()},
           {"oversubscribe", options.allow_oversubscribe}};
 }
 
@@ -175,6 +200,14 @@ void validate_row_into(const json& row, const std::string& w, std::vector<std::s
   expect(row, w, "time_seconds", is_object, "object", p);
   expect(row, w, "instrumented", is_object, "object", p);
   expect(row, w, "accounting", is_object_or_null, "object or null", p);
+  if (row.is_object() && row.contains("disturbance")) {  // absent in older documents
+    const json& d = row["disturbance"];
+    expect(d, w + ".disturbance", "disturbed", is_bool, "bool", p);
+    expect(d, w + ".disturbance", "disturbed_runs", is_integer, "integer", p);
+    expect(d, w + ".disturbance", "runs", is_integer, "integer", p);
+    expect(d, w + ".disturbance", "reruns", is_integer, "integer", p);
+    expect(d, w + ".disturbance", "records", is_array, "array", p);
+  }
   expect(row, w, "verification", is_object, "object", p);
   expect(row, w, "cg_iterations", is_integer, "integer", p);
   expect(row, w, "steps", is_integer, "integer", p);

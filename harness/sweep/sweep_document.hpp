@@ -3,7 +3,7 @@
 //
 //   schema "clothbench.sweep", schema_version 1, created_utc, updated_utc, complete (bool),
 //   command [argv], settings {schedulers, threads, repeat, warmup_steps, steps, instrument,
-//   bind, oversubscribe}, scene {name, file, hash, source}, machine (machine_context()),
+//   bind, oversubscribe, retries, omp_wait_policy (the last two absent in older documents)}, scene {name, file, hash, source}, machine (machine_context()),
 //   openmp_environment (openmp_environment()), reference {scheduler, threads, state_digest,
 //   state_bytes}, rows [ROW ...]
 //
@@ -15,6 +15,10 @@
 //     unaccounted_seconds, imbalance_percent, thread_work_cv, loops, chunks,
 //     thread_work_seconds[]} | null (instrument off)
 //   verification {passed, failures[], runs, bit_identical, state_digest, max_mass_error}
+//   disturbance {disturbed, disturbed_runs, runs, reruns, records [{disturbed, reasons[],
+//     cpu_seconds, wall_seconds, cpu_share, involuntary_switches, switch_rate_per_core_second,
+//     load_before, load_after, wait_policy, oversubscribed, instrumented, attempts}]}
+//     (absent in documents written before disturbance was measured)
 //   cg_iterations, steps, binding {mode, bound, threads [{thread, cpuset, last_pu}]}
 //   derived {speedup, efficiency, speedup_vs_best_1thread, efficiency_vs_best_1thread}
 //     (numbers, or null when this row or its 1-thread baseline failed or is missing)
@@ -45,7 +49,8 @@ struct RowKey {
 };
 
 /// Builds a row from the uninstrumented runs (`plain`) and instrumented runs (`timed`,
-/// empty with --instrument off) of one (scheduler, threads) cell.
+/// empty with --instrument off) of one (scheduler, threads) cell. The row is disturbed when
+/// any of its runs stayed disturbed (MeasuredRun::disturbance after its retries).
 nlohmann::json make_row(const std::string& scheduler, const std::string& canonical,
                         const std::string& note, int threads, bool oversubscribed,
                         const std::vector<MeasuredRun>& plain,

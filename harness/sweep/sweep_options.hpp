@@ -33,6 +33,8 @@ struct SweepOptions {
   kernels::Instrumentation instrument = kernels::Instrumentation::loops;
   BindMode bind = BindMode::none;
   bool allow_oversubscribe = false;  ///< thread counts above the hardware threads
+  /// Re-runs of a disturbed repetition (disturbance.hpp) before it counts as disturbed.
+  int retries = 2;
   bool resume = false;               ///< skip rows already in OUT/sweep.json
   bool quiet = false;                ///< no progress bar, no per-row lines
   bool plots = true;                 ///< run gnuplot at the end

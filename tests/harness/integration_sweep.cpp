@@ -115,7 +115,12 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
                 1e-9 + 1e-9 * wall)
         << where;
     if (row["threads"] == 1) {
-      EXPECT_DOUBLE_EQ(row["derived"]["speedup"].get<double>(), 1.0) << where;
+      // A row disturbed by other work on the machine (ctest -j, a shared CI node) has none.
+      if (!row["disturbance"]["disturbed"].get<bool>()) {
+        EXPECT_DOUBLE_EQ(row["derived"]["speedup"].get<double>(), 1.0) << where;
+      } else {
+        EXPECT_TRUE(row["derived"]["speedup"].is_null()) << where;
+      }
       EXPECT_NEAR(a["load_imbalance_seconds"].get<double>(), 0.0, 1e-12) << where;
     }
   }
@@ -124,7 +129,8 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
   ASSERT_EQ(md.exit_code, 0) << md.output;
   EXPECT_TRUE(std::regex_search(
       md.output, std::regex(R"(\n\| 2 \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.]+ \| [0-9.e-]+ \| )"
-                            R"([0-9.e-]+-[0-9.e-]+ \| \d+\.\d\d \| \d+\.\d\d \| \d+\.\d\d \| PASSED \|\n)")))
+                            R"([0-9.e-]+-[0-9.e-]+ \| (\d+\.\d\d|-) \| (\d+\.\d\d|-) \| (\d+\.\d\d|-) \| )"
+                            R"(PASSED \| (clean|DISTURBED \(\d+ of \d+ runs\)) \|\n)")))
       << md.output;
   for (const char* heading : {"## static@blocks", "## dynamic:1@blocks", "## guided:1@blocks",
                               "## active-lists@active"}) {

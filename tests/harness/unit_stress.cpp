@@ -236,7 +236,8 @@ TEST(StressVerdict, EachCriterionFailsTheCellOnItsOwn) {
              "step 3: non-finite value: the step's cost");
   fails_with([](auto& r) { r.mass_drift = 2e-12; }, "mass drift 2e-12");
   fails_with([](auto& r) { r.mass_drift = kNan; }, "mass drift nan");
-  fails_with([](auto& r) { r.max_particle_penetration = 0.002; }, "a particle went 0.002 m");
+  fails_with([](auto& r) { r.max_particle_penetration = 1e-6; },
+             "a particle is 1e-06 m inside an obstacle");
   fails_with([](auto& r) { r.max_surface_penetration = 0.0021; }, "the interpolated surface");
   fails_with([](auto& r) { r.max_ghost_offset = 1e-9; }, "crack");
   // Growing tenfold and more from the rejection level, and still rising.
