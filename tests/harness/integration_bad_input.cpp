@@ -169,7 +169,7 @@ TEST_F(BadInputBinary, ARunThatOverflowsWritesItsSnapshotAndNoNonFiniteNumber) {
   fs::remove_all(dir);
 }
 
-TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesOnlyWhereTheyExist) {
+TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWhereTheyExist) {
   const fs::path out = fresh_dir("run-lines");
   const std::string common =
       "run " + quote(kTiny.string()) + " --steps 2 --no-vtk --out " + quote(out.string());
@@ -194,9 +194,16 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesOnlyWhereTheyExist
   const Outcome old_name = run(common + " --preconditioner lines");
   EXPECT_EQ(old_name.exit_code, 2) << old_name.output;
   EXPECT_THAT(old_name.output, HasSubstr("--preconditioner"));
-  const Outcome unknown = run(common + " --preconditioner multigrid");
-  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
-  EXPECT_THAT(unknown.output, HasSubstr("--preconditioner"));
+  // The multigrid preconditions Newton's inner PCG only.
+  const Outcome no_multigrid = run(common + " --preconditioner multigrid");
+  EXPECT_EQ(no_multigrid.exit_code, 2) << no_multigrid.output;
+  EXPECT_THAT(no_multigrid.output,
+              HasSubstr("solver.preconditioner: the multigrid preconditioner preconditions "
+                        "Newton's inner linear PCG"));
+  const Outcome multigrid = run(common + " --method newton --preconditioner multigrid");
+  ASSERT_EQ(multigrid.exit_code, 0) << multigrid.output;
+  EXPECT_THAT(multigrid.output, HasSubstr("method newton, preconditioner multigrid\n"));
+  EXPECT_THAT(multigrid.output, HasSubstr("\nVerification: PASSED"));
 }
 
 TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {
