@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 #include <sstream>
 
 #include "harness/output/atomic_file.hpp"
+#include "harness/sweep/sweep_document.hpp"
 
 namespace clothbench::harness {
 
@@ -171,34 +173,50 @@ PlotOutcome plot_sweep(const json& document, const std::filesystem::path& dir) {
   const bool instrumented = std::any_of(document["rows"].begin(), document["rows"].end(),
                                         [](const json& r) { return r["accounting"].is_object(); });
   if (!instrumented) return outcome;
+  // Each bar is the instrumented run the row's overheads come from (sweep_document.hpp,
+  // AccountingIdentity): its parts stack up to that run's wall; the dot is the row's Time
+  // (median of the uninstrumented runs), so a bar above its dot is a run that took longer.
   std::ostringstream bars;
-  bars << "# label sequential parallel_overhead imbalance parallel_work\n";
+  bars << "# label sequential parallel_overhead imbalance parallel_work residual "
+          "time_median run_wall\n";
+  bars << "# bars: the median instrumented run of the row (the run its overheads come from); "
+          "time_median: the row's Time (uninstrumented); a label starting with a dagger: its "
+          "overheads exceed that Time (table.md says why)\n";
   for (std::size_t g = 0; g < groups.size(); ++g) {
-    if (g > 0) bars << "\"\" 0 0 0 0\n";
+    if (g > 0) bars << "\"\" 0 0 0 0 0 ? ?\n";
     for (const json* r : groups[g].second) {
-      bars << fmt::format("\"{} {}t{}\" {:.9g} {:.9g} {:.9g} {:.9g}\n", groups[g].first,
+      const std::optional<AccountingIdentity> id = accounting_identity(*r);
+      bars << fmt::format("\"{}{} {}t{}\" {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g}\n",
+                          id && id->overheads_exceed_time ? "\u2020 " : "", groups[g].first,
                           (*r)["threads"].get<int>(), row_disturbed(*r) ? " DISTURBED" : "",
                           accounting_value(*r, "sequential_overhead_seconds"),
                           accounting_value(*r, "parallel_overhead_seconds"),
                           accounting_value(*r, "load_imbalance_seconds"),
-                          accounting_value(*r, "parallel_work_seconds"));
+                          accounting_value(*r, "parallel_work_seconds"),
+                          id ? std::max(0.0, id->residual_seconds) : 0.0,
+                          (*r)["time_seconds"]["median"].get<double>(),
+                          id ? id->wall_seconds : 0.0);
     }
   }
   write_file_atomically(dir / "overhead.dat", bars.str());
   std::ostringstream og;
   og << png_terminal(1500, 650) << "set output 'overhead.png'\n"
-     << "set multiplot layout 1,2 title 'Where the time goes (median instrumented run, "
-        "summed over loops)'\n"
+     << "set datafile missing '?'\n"
+     << "set multiplot layout 1,2 title 'Where the time goes: the median instrumented run of "
+        "each row (its overheads, summed over loops); dot: the row''s Time (uninstrumented "
+        "median)'\n"
      << "set style data histograms\nset style histogram rowstacked\n"
      << "set style fill solid 0.85 border -1\nset boxwidth 0.75\nset grid ytics\n"
      << "set xtics rotate by -50 scale 0 font ',9'\nset yrange [0:*]\nset rmargin 7\n"
      << "set bmargin 9\nset key outside top center horizontal\n"
-     << "set title 'Total: work + overheads'\nset ylabel 'seconds'\n"
+     << "set title 'That run''s wall = work + overheads + residual'\nset ylabel 'seconds'\n"
      << "plot 'overhead.dat' using 5:xtic(1) title 'parallel work' lc rgb '#9ecae1', \\\n"
      << "     '' using 2 title 'sequential overhead' lc rgb '#e6550d', \\\n"
      << "     '' using 3 title 'parallel overhead' lc rgb '#31a354', \\\n"
-     << "     '' using 4 title 'load imbalance' lc rgb '#756bb1'\n"
-     << "set title 'Overheads only'\n"
+     << "     '' using 4 title 'load imbalance' lc rgb '#756bb1', \\\n"
+     << "     '' using 6 title 'residual (outside the step timer)' lc rgb '#bdbdbd', \\\n"
+     << "     '' using 0:7 with points pt 7 ps 1.2 lc rgb 'black' title 'Time (timed median)'\n"
+     << "set title 'Overheads only (of the same run)'\n"
      << "plot 'overhead.dat' using 2:xtic(1) title 'sequential overhead' lc rgb '#e6550d', \\\n"
      << "     '' using 3 title 'parallel overhead' lc rgb '#31a354', \\\n"
      << "     '' using 4 title 'load imbalance' lc rgb '#756bb1'\n"

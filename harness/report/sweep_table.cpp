@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -85,7 +86,94 @@ const json& accounting_field(const json& row, const char* key) {
   return a.is_object() && a.contains(key) ? a[key] : null_value;
 }
 
+/// Fixed decimals for the cells of one identity row: 4 significant digits of the run's wall
+/// (at least 3 decimals, Table 2 style), the same for every part, so the printed parts add
+/// up to the printed wall within a few units of the last decimal.
+int identity_decimals(double wall) {
+  if (!(wall > 0.0)) return 3;
+  return std::max(3, 3 - static_cast<int>(std::floor(std::log10(wall))));
+}
+
+std::string fixed(double value, int decimals) { return fmt::format("{:.{}f}", value, decimals); }
+
+/// "instr. run k of n (median)": which run the overheads come from, 1-based for people.
+std::string run_label(const AccountingIdentity& id) {
+  return id.runs > 0 ? fmt::format("instr. run {} of {} (median)", id.from_run + 1, id.runs)
+                     : fmt::format("instr. run {} (median)", id.from_run + 1);
+}
+
+constexpr const char* kExceedsMark = "†";  // dagger: the row's footnote says why
+
+/// The accounting table of one scheduler: per row the instrumented run the overheads come
+/// from, its wall time and the identity wall = seq + work + para + imbalance + residual.
+void write_accounting_table(std::ostringstream& out, const std::vector<const json*>& group,
+                            const std::string& level) {
+  std::vector<std::string> footnotes;
+  bool any = false;
+  for (const json* r : group) any = any || accounting_identity(*r).has_value();
+  if (!any) return;
+  out << fmt::format(
+      "\nWhere the time went, in the instrumented run (`{}`) the overheads above come from: "
+      "run wall = seq. overhead + parallel work + para. overhead + imbalance + residual "
+      "(the residual is the time outside the kernel's step timer). Run wall / Time is that "
+      "run against the row's Time; as the run is the median instrumented one, it is what the "
+      "instrumentation costs (instrumented median / uninstrumented median).\n\n",
+      level);
+  out << "| Threads | Overheads from | Run wall [s] | Seq. overhead [s] | Parallel work [s] "
+         "| Para. overhead [s] | Imbalance [s] | Residual [s] | Run wall / Time |\n";
+  out << "|--:|:--|--:|--:|--:|--:|--:|--:|--:|\n";
+  for (const json* r : group) {
+    const json& row = *r;
+    const std::optional<AccountingIdentity> id = accounting_identity(row);
+    if (!id) {
+      out << fmt::format("| {} | not instrumented | - | - | - | - | - | - | - |\n",
+                         row["threads"].get<int>());
+      continue;
+    }
+    const int d = identity_decimals(id->wall_seconds);
+    out << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {:.2f}x{} |\n",
+                       row["threads"].get<int>(), run_label(*id), fixed(id->wall_seconds, d),
+                       fixed(id->sequential_overhead, d), fixed(id->parallel_work, d),
+                       fixed(id->parallel_overhead, d), fixed(id->load_imbalance, d),
+                       fixed(id->residual_seconds, d), id->wall_over_time,
+                       id->overheads_exceed_time ? std::string(" ") + kExceedsMark : "");
+    if (id->overheads_exceed_time) {
+      footnotes.push_back(fmt::format("{} {} threads: {}.", kExceedsMark,
+                                      row["threads"].get<int>(), id->note));
+    }
+  }
+  for (const std::string& f : footnotes) out << "\n" << f << "\n";
+}
+
 }  // namespace
+
+std::string format_row_line(const json& row) {
+  std::string parts;
+  const std::optional<AccountingIdentity> id = accounting_identity(row);
+  if (id) {
+    parts = fmt::format(
+        "  overheads from {}: wall {:.4f} = seq {:.4f} + work {:.4f} + para {:.4f} + imb {:.4f} "
+        "+ resid {:.4f} s ({:.2f}x time){}",
+        run_label(*id), id->wall_seconds, id->sequential_overhead, id->parallel_work,
+        id->parallel_overhead, id->load_imbalance, id->residual_seconds, id->wall_over_time,
+        id->overheads_exceed_time ? "  OVERHEADS > TIME (instrumented run longer, see table.md)"
+                                  : "");
+  }
+  const bool disturbed = row_disturbed(row);
+  const json& disturbance = row.contains("disturbance") ? row["disturbance"] : json();
+  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
+                     row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
+                     row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
+                     row["time_seconds"]["median"].get<double>(),
+                     row["time_seconds"]["min"].get<double>(),
+                     row["time_seconds"]["max"].get<double>(), parts,
+                     passed(row) ? "PASSED" : "FAILED",
+                     disturbed ? fmt::format("  DISTURBED ({} of {} runs, {} re-run)",
+                                             disturbance["disturbed_runs"].get<int>(),
+                                             disturbance["runs"].get<int>(),
+                                             disturbance["reruns"].get<int>())
+                               : std::string());
+}
 
 std::string csv_cell(const json& value) {
   if (value.is_null()) return "";
@@ -189,12 +277,16 @@ std::string format_markdown(const json& document) {
           passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} check{})", failures, failures == 1 ? "" : "s"),
           timing_label(row));
     }
+    write_accounting_table(out, group, settings["instrument"].get<std::string>());
   }
   out << "\nSeq. overhead: time outside parallel loops (CG scalars, list rebuilds). Para. "
          "overhead: loop wall time minus the busiest thread's work (fork/join, barriers, "
          "dispatch). Imbalance: busiest minus mean thread work; [%] = busiest/mean - 1. All "
-         "three are summed over the loops of the median instrumented run. Time: uninstrumented "
-         "wall time. Speed-up: against the same scheduler's 1-thread time; a FAILED run shows "
+         "three are summed over the loops of one instrumented run, the median of the row's "
+         "instrumented runs, not of the timed ones: the table under each scheduler names that "
+         "run and shows its own wall time, which the parts add up to. Time: median wall time of "
+         "the uninstrumented runs. A row whose overheads add up to more than its Time is "
+         "marked \u2020 with the reason (its instrumented run took longer). Speed-up: against the same scheduler's 1-thread time; a FAILED run shows "
          "no speed-up. Timing: DISTURBED when some of the row's runs were still disturbed by "
          "other work on the machine after their retries (another process's CPU time or "
          "preemptions, see sweep.json's disturbance records); a DISTURBED row, or one whose "
@@ -207,7 +299,9 @@ std::string format_csv(const json& document) {
   out << "scheduler,scheduler_canonical,threads,oversubscribed,time_median_s,time_min_s,"
          "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
          "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
-         "instrumentation_cost_s,speedup,efficiency,speedup_vs_best_1thread,"
+         "instrumentation_cost_s,instrumentation_cost_ratio,overheads_from_run,instrumented_runs,"
+         "instrumented_run_wall_s,identity_residual_s,run_wall_over_time,overheads_exceed_time,"
+         "overheads_note,speedup,efficiency,speedup_vs_best_1thread,"
          "efficiency_vs_best_1thread,verification,timing\n";
   for (const auto& group : grouped_rows(document)) {
     for (const json* r : group) {
@@ -223,6 +317,16 @@ std::string format_csv(const json& document) {
       }
       cells.push_back(row["instrumented"]["level"]);
       cells.push_back(row["instrumented"]["cost_seconds"]);
+      const std::optional<double> ratio = instrumentation_cost_ratio(row);
+      cells.push_back(ratio ? json(*ratio) : json());
+      if (const std::optional<AccountingIdentity> id = accounting_identity(row)) {
+        cells.insert(cells.end(), {json(id->from_run), id->runs > 0 ? json(id->runs) : json(),
+                                   json(id->wall_seconds), json(id->residual_seconds),
+                                   json(id->wall_over_time), json(id->overheads_exceed_time),
+                                   json(id->note)});
+      } else {
+        cells.insert(cells.end(), 7, json());
+      }
       for (const char* k : {"speedup", "efficiency", "speedup_vs_best_1thread",
                             "efficiency_vs_best_1thread"}) {
         cells.push_back(d[k]);

@@ -1,6 +1,8 @@
 // Tables from a sweep document (harness/sweep/sweep_document.hpp): the paper's Table 2
 // layout (threads, seq. overhead, para. overhead, time, speed-up; plus load imbalance,
-// efficiency and verification) per scheduler, as Markdown or CSV.
+// efficiency and verification) per scheduler, as Markdown or CSV; under each scheduler's
+// table the accounting of the instrumented run its overheads come from (the identity
+// wall = seq. overhead + parallel work + para. overhead + imbalance + residual).
 #pragma once
 
 #include <filesystem>
@@ -22,6 +24,11 @@ bool row_disturbed(const nlohmann::json& row);
 /// Markdown: a heading and context paragraph, then one Table-2 style table per scheduler
 /// (in the order of settings.schedulers, threads ascending) and the column definitions.
 std::string format_markdown(const nlohmann::json& document);
+
+/// The per-row line the sweep prints when a row is finished: time (median, min-max), the
+/// instrumented run the overheads come from with its identity wall = seq + work + para +
+/// imbalance + residual and its wall against the Time, verification and timing verdicts.
+std::string format_row_line(const nlohmann::json& row);
 
 /// CSV (RFC 4180, header line, one line per row, empty cell for a missing value).
 std::string format_csv(const nlohmann::json& document);

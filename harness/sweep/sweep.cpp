@@ -103,30 +103,6 @@ std::string resume_command(const SweepOptions& options) {
   return command;
 }
 
-std::string row_line(const json& row) {
-  const json& a = row["accounting"];
-  std::string parts;
-  if (a.is_object()) {
-    parts = fmt::format("  seq {:.4f}  para {:.4f}  imb {:.4f} s", a["sequential_overhead_seconds"].get<double>(),
-                        a["parallel_overhead_seconds"].get<double>(),
-                        a["load_imbalance_seconds"].get<double>());
-  }
-  const json& disturbance = row["disturbance"];
-  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
-                     row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
-                     row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
-                     row["time_seconds"]["median"].get<double>(),
-                     row["time_seconds"]["min"].get<double>(),
-                     row["time_seconds"]["max"].get<double>(), parts,
-                     row["verification"]["passed"].get<bool>() ? "PASSED" : "FAILED",
-                     disturbance["disturbed"].get<bool>()
-                         ? fmt::format("  DISTURBED ({} of {} runs, {} re-run)",
-                                       disturbance["disturbed_runs"].get<int>(),
-                                       disturbance["runs"].get<int>(),
-                                       disturbance["reruns"].get<int>())
-                         : std::string());
-}
-
 }  // namespace
 
 int run_sweep(const SweepOptions& options) {
@@ -281,7 +257,7 @@ int run_sweep(const SweepOptions& options) {
       write_outputs(document, options.output_dir);  // an interrupted sweep keeps this row
       if (!options.quiet) {
         progress.clear();
-        fmt::print("{}", row_line(*row));
+        fmt::print("{}", format_row_line(*row));
         std::fflush(stdout);
       }
     }

@@ -46,6 +46,62 @@ json accounting_json(const OverheadAccounting& a, std::size_t from_run) {
           {"thread_work_seconds", a.thread_work}};
 }
 
+std::optional<double> instrumentation_cost_ratio(const json& row) {
+  const json& timed = row["instrumented"]["time_seconds"];
+  const json& plain = row["time_seconds"];
+  if (!timed.is_object() || !timed["median"].is_number() || !plain["median"].is_number()) {
+    return std::nullopt;
+  }
+  const double base = plain["median"].get<double>();
+  if (!(base > 0.0)) return std::nullopt;
+  return timed["median"].get<double>() / base;
+}
+
+std::optional<AccountingIdentity> accounting_identity(const json& row) {
+  const json& a = row["accounting"];
+  if (!a.is_object()) return std::nullopt;
+  auto number = [&](const char* key) { return a.contains(key) && a[key].is_number() ? a[key].get<double>() : 0.0; };
+  AccountingIdentity id;
+  id.wall_seconds = number("wall_seconds");
+  id.sequential_overhead = number("sequential_overhead_seconds");
+  id.parallel_work = number("parallel_work_seconds");
+  id.parallel_overhead = number("parallel_overhead_seconds");
+  id.load_imbalance = number("load_imbalance_seconds");
+  id.parts_seconds =
+      id.sequential_overhead + id.parallel_work + id.parallel_overhead + id.load_imbalance;
+  id.residual_seconds = id.wall_seconds - id.parts_seconds;
+  id.overheads_seconds = id.sequential_overhead + id.parallel_overhead + id.load_imbalance;
+  id.time_median_seconds = row["time_seconds"]["median"].get<double>();
+  id.wall_over_time = id.time_median_seconds > 0.0 ? id.wall_seconds / id.time_median_seconds : 0.0;
+  id.from_run = a.value("from_run", std::size_t{0});
+  if (a.contains("runs") && a["runs"].is_number_integer()) {
+    id.runs = a["runs"].get<std::size_t>();
+  } else if (const json& t = row["instrumented"]["time_seconds"]; t.is_object()) {
+    id.runs = t["samples"].size();  // older documents: the instrumented samples
+  }
+  id.overheads_exceed_time = id.overheads_seconds > id.time_median_seconds;
+  if (id.overheads_exceed_time) {
+    id.note = fmt::format(
+        "the overheads ({:.4g} s) exceed the row's Time ({:.4g} s, median of the uninstrumented "
+        "runs): they come from instrumented run {} of {}, which took {:.4g} s, {:.2f}x that "
+        "median (the instrumentation's own cost, or other work on the machine: see Timing)",
+        id.overheads_seconds, id.time_median_seconds, id.from_run + 1, id.runs, id.wall_seconds,
+        id.wall_over_time);
+  }
+  return id;
+}
+
+json identity_json(const AccountingIdentity& id) {
+  return {{"wall_seconds", id.wall_seconds},
+          {"parts_seconds", id.parts_seconds},
+          {"residual_seconds", id.residual_seconds},
+          {"overheads_seconds", id.overheads_seconds},
+          {"time_median_seconds", id.time_median_seconds},
+          {"wall_over_time", id.wall_over_time},
+          {"overheads_exceed_time", id.overheads_exceed_time},
+          {"note", id.note}};
+}
+
 json make_row(const std::string& scheduler, const std::string& canonical, const std::string& note,
               int threads, bool oversubscribed, const std::vector<MeasuredRun>& plain,
               const std::vector<MeasuredRun>& timed, kernels::Instrumentation level, int steps,
@@ -92,7 +148,8 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
   json instrumented = {{"level", to_string(level)},
                        {"time_seconds", nullptr},
                        {"cost_seconds", nullptr},
-                       {"cost_percent", nullptr}};
+                       {"cost_percent", nullptr},
+                       {"cost_ratio", nullptr}};
   json accounting = nullptr;
   if (!timed.empty()) {
     const double plain_median = plain_times[median_index(plain_times)];
@@ -101,7 +158,11 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
     instrumented["time_seconds"] = sample_statistics(timed_times);
     instrumented["cost_seconds"] = cost;
     instrumented["cost_percent"] = plain_median > 0.0 ? 100.0 * cost / plain_median : 0.0;
+    instrumented["cost_ratio"] =
+        plain_median > 0.0 ? timed_times[median_index(timed_times)] / plain_median : 0.0;
     accounting = accounting_json(timed[pick].accounting, pick);
+    accounting["source"] = "median instrumented run";
+    accounting["runs"] = timed.size();
   }
   json row = {{"scheduler", scheduler},
               {"scheduler_canonical", canonical},
@@ -127,6 +188,9 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
                 {"efficiency", nullptr},
                 {"speedup_vs_best_1thread", nullptr},
                 {"efficiency_vs_best_1thread", nullptr}}}};
+  if (const std::optional<AccountingIdentity> identity = accounting_identity(row)) {
+    row["accounting"]["identity"] = identity_json(*identity);
+  }
   check_finite(row, "row");
   return row;
 }
@@ -233,6 +297,16 @@ void validate_row_into(const json& row, const std::string& w, std::vector<std::s
       expect(row["accounting"], w + ".accounting", k, is_number, "number", p);
     }
     expect(row["accounting"], w + ".accounting", "thread_work_seconds", is_array, "array", p);
+    if (row["accounting"].contains("identity")) {  // absent in older documents
+      const json& id = row["accounting"]["identity"];
+      const std::string where = w + ".accounting.identity";
+      for (const char* k : {"wall_seconds", "parts_seconds", "residual_seconds",
+                            "overheads_seconds", "time_median_seconds", "wall_over_time"}) {
+        expect(id, where, k, is_number, "number", p);
+      }
+      expect(id, where, "overheads_exceed_time", is_bool, "bool", p);
+      expect(id, where, "note", is_string, "string", p);
+    }
   }
   const json& b = row["binding"];
   expect(b, w + ".binding", "mode", is_string, "string", p);

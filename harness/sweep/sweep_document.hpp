@@ -9,11 +9,17 @@
 //
 //   ROW: scheduler (as given), scheduler_canonical, note, threads, oversubscribed,
 //   time_seconds {median, min, max, samples[]}        -- uninstrumented runs
-//   instrumented {level, time_seconds {...} | null, cost_seconds | null, cost_percent | null}
+//   instrumented {level, time_seconds {...} | null, cost_seconds | null, cost_percent | null,
+//     cost_ratio | null (instrumented median / uninstrumented median; absent in older documents)}
 //   accounting {from_run, wall_seconds, step_seconds, sequential_overhead_seconds,
 //     parallel_overhead_seconds, load_imbalance_seconds, parallel_work_seconds,
 //     unaccounted_seconds, imbalance_percent, thread_work_cv, loops, chunks,
-//     thread_work_seconds[]} | null (instrument off)
+//     thread_work_seconds[],
+//     source "median instrumented run", runs (instrumented runs; from_run indexes them),
+//     identity {wall_seconds, parts_seconds, residual_seconds, overheads_seconds,
+//       time_median_seconds, wall_over_time, overheads_exceed_time, note}
+//     (source, runs and identity absent in older documents: accounting_identity() derives
+//     the same figures from the fields above)} | null (instrument off)
 //   verification {passed, failures[], runs, bit_identical, state_digest, max_mass_error}
 //   disturbance {disturbed, disturbed_runs, runs, reruns, records [{disturbed, reasons[],
 //     cpu_seconds, wall_seconds, cpu_share, involuntary_switches, switch_rate_per_core_second,
@@ -25,6 +31,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +63,43 @@ nlohmann::json make_row(const std::string& scheduler, const std::string& canonic
                         const std::vector<MeasuredRun>& plain,
                         const std::vector<MeasuredRun>& timed,
                         kernels::Instrumentation level, int steps, nlohmann::json binding);
+
+/// The accounting identity of a row's overhead figures (MODEL.md section 7). The overheads
+/// come from one instrumented run (accounting.from_run of the row's instrumented runs, the
+/// median by wall time), not from the uninstrumented runs whose median is the row's Time, so
+/// every report shows them beside that run's own wall time:
+///   wall = sequential overhead + parallel work + parallel overhead + imbalance + residual
+/// where the residual (the time outside the kernel's step timer, plus rounding) is shown too.
+/// `overheads_exceed_time` marks a row whose three overheads add up to more than its Time
+/// (possible only when the instrumented run took longer than the timed median): reports
+/// label such a row and say why (`note`).
+struct AccountingIdentity {
+  double wall_seconds = 0.0;          ///< the instrumented run's wall time
+  double sequential_overhead = 0.0;
+  double parallel_work = 0.0;
+  double parallel_overhead = 0.0;
+  double load_imbalance = 0.0;
+  double parts_seconds = 0.0;         ///< the four components' sum
+  double residual_seconds = 0.0;      ///< wall - parts
+  double overheads_seconds = 0.0;     ///< sequential + parallel overhead + imbalance
+  double time_median_seconds = 0.0;   ///< the row's Time: median of the uninstrumented runs
+  double wall_over_time = 0.0;        ///< wall / time median (0 when the median is 0)
+  bool overheads_exceed_time = false; ///< overheads_seconds > time_median_seconds
+  std::size_t from_run = 0;           ///< 0-based index among the instrumented runs
+  std::size_t runs = 0;               ///< instrumented runs of the row (0 when not recorded)
+  std::string note;                   ///< why the overheads exceed the Time; empty otherwise
+};
+
+/// The identity of `row` computed from its accounting fields (so rows of older documents get
+/// it too); nullopt when the row has no accounting (--instrument off).
+std::optional<AccountingIdentity> accounting_identity(const nlohmann::json& row);
+
+/// An identity as the JSON block `accounting.identity`.
+nlohmann::json identity_json(const AccountingIdentity& identity);
+
+/// Instrumented median / uninstrumented median of `row`, or nullopt (not instrumented, or an
+/// older document without the instrumented samples).
+std::optional<double> instrumentation_cost_ratio(const nlohmann::json& row);
 
 /// The accounting block of one run as JSON.
 nlohmann::json accounting_json(const OverheadAccounting& a, std::size_t from_run);
