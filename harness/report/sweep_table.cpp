@@ -138,8 +138,8 @@ void write_accounting_table(std::ostringstream& out, const std::vector<const jso
                        fixed(id->residual_seconds, d), id->wall_over_time,
                        id->overheads_exceed_time ? std::string(" ") + kExceedsMark : "");
     if (id->overheads_exceed_time) {
-      footnotes.push_back(fmt::format("{} {} threads: {}.", kExceedsMark,
-                                      row["threads"].get<int>(), id->note));
+      footnotes.push_back(
+          fmt::format("{} {} threads: {}.", kExceedsMark, row["threads"].get<int>(), id->note));
     }
   }
   for (const std::string& f : footnotes) out << "\n" << f << "\n";
@@ -161,18 +161,16 @@ std::string format_row_line(const json& row) {
   }
   const bool disturbed = row_disturbed(row);
   const json& disturbance = row.contains("disturbance") ? row["disturbance"] : json();
-  return fmt::format("  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
-                     row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
-                     row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
-                     row["time_seconds"]["median"].get<double>(),
-                     row["time_seconds"]["min"].get<double>(),
-                     row["time_seconds"]["max"].get<double>(), parts,
-                     passed(row) ? "PASSED" : "FAILED",
-                     disturbed ? fmt::format("  DISTURBED ({} of {} runs, {} re-run)",
-                                             disturbance["disturbed_runs"].get<int>(),
-                                             disturbance["runs"].get<int>(),
-                                             disturbance["reruns"].get<int>())
-                               : std::string());
+  return fmt::format(
+      "  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
+      row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),
+      row["oversubscribed"].get<bool>() ? " (oversubscribed)" : "",
+      row["time_seconds"]["median"].get<double>(), row["time_seconds"]["min"].get<double>(),
+      row["time_seconds"]["max"].get<double>(), parts, passed(row) ? "PASSED" : "FAILED",
+      disturbed ? fmt::format("  DISTURBED ({} of {} runs, {} re-run)",
+                              disturbance["disturbed_runs"].get<int>(),
+                              disturbance["runs"].get<int>(), disturbance["reruns"].get<int>())
+                : std::string());
 }
 
 std::string csv_cell(const json& value) {
@@ -286,7 +284,8 @@ std::string format_markdown(const json& document) {
          "instrumented runs, not of the timed ones: the table under each scheduler names that "
          "run and shows its own wall time, which the parts add up to. Time: median wall time of "
          "the uninstrumented runs. A row whose overheads add up to more than its Time is "
-         "marked \u2020 with the reason (its instrumented run took longer). Speed-up: against the same scheduler's 1-thread time; a FAILED run shows "
+         "marked \u2020 with the reason (its instrumented run took longer). Speed-up: against the "
+         "same scheduler's 1-thread time; a FAILED run shows "
          "no speed-up. Timing: DISTURBED when some of the row's runs were still disturbed by "
          "other work on the machine after their retries (another process's CPU time or "
          "preemptions, see sweep.json's disturbance records); a DISTURBED row, or one whose "
@@ -320,10 +319,10 @@ std::string format_csv(const json& document) {
       const std::optional<double> ratio = instrumentation_cost_ratio(row);
       cells.push_back(ratio ? json(*ratio) : json());
       if (const std::optional<AccountingIdentity> id = accounting_identity(row)) {
-        cells.insert(cells.end(), {json(id->from_run), id->runs > 0 ? json(id->runs) : json(),
-                                   json(id->wall_seconds), json(id->residual_seconds),
-                                   json(id->wall_over_time), json(id->overheads_exceed_time),
-                                   json(id->note)});
+        cells.insert(cells.end(),
+                     {json(id->from_run), id->runs > 0 ? json(id->runs) : json(),
+                      json(id->wall_seconds), json(id->residual_seconds), json(id->wall_over_time),
+                      json(id->overheads_exceed_time), json(id->note)});
       } else {
         cells.insert(cells.end(), 7, json());
       }

@@ -60,7 +60,9 @@ std::optional<double> instrumentation_cost_ratio(const json& row) {
 std::optional<AccountingIdentity> accounting_identity(const json& row) {
   const json& a = row["accounting"];
   if (!a.is_object()) return std::nullopt;
-  auto number = [&](const char* key) { return a.contains(key) && a[key].is_number() ? a[key].get<double>() : 0.0; };
+  auto number = [&](const char* key) {
+    return a.contains(key) && a[key].is_number() ? a[key].get<double>() : 0.0;
+  };
   AccountingIdentity id;
   id.wall_seconds = number("wall_seconds");
   id.sequential_overhead = number("sequential_overhead_seconds");

@@ -3,9 +3,10 @@
 //
 //   schema "clothbench.sweep", schema_version 1, created_utc, updated_utc, complete (bool),
 //   command [argv], settings {schedulers, threads, repeat, warmup_steps, steps, instrument,
-//   bind, oversubscribe, retries, omp_wait_policy (the last two absent in older documents)}, scene {name, file, hash, source}, machine (machine_context()),
-//   openmp_environment (openmp_environment()), reference {scheduler, threads, state_digest,
-//   state_bytes}, rows [ROW ...]
+//   bind, oversubscribe, retries, omp_wait_policy (the last two absent in older documents)},
+//   scene {name, file, hash, source}, machine (machine_context()), openmp_environment
+//   (openmp_environment()), reference {scheduler, threads, state_digest, state_bytes},
+//   rows [ROW ...]
 //
 //   ROW: scheduler (as given), scheduler_canonical, note, threads, oversubscribed,
 //   time_seconds {median, min, max, samples[]}        -- uninstrumented runs
@@ -74,20 +75,20 @@ nlohmann::json make_row(const std::string& scheduler, const std::string& canonic
 /// (possible only when the instrumented run took longer than the timed median): reports
 /// label such a row and say why (`note`).
 struct AccountingIdentity {
-  double wall_seconds = 0.0;          ///< the instrumented run's wall time
+  double wall_seconds = 0.0;  ///< the instrumented run's wall time
   double sequential_overhead = 0.0;
   double parallel_work = 0.0;
   double parallel_overhead = 0.0;
   double load_imbalance = 0.0;
-  double parts_seconds = 0.0;         ///< the four components' sum
-  double residual_seconds = 0.0;      ///< wall - parts
-  double overheads_seconds = 0.0;     ///< sequential + parallel overhead + imbalance
-  double time_median_seconds = 0.0;   ///< the row's Time: median of the uninstrumented runs
-  double wall_over_time = 0.0;        ///< wall / time median (0 when the median is 0)
-  bool overheads_exceed_time = false; ///< overheads_seconds > time_median_seconds
-  std::size_t from_run = 0;           ///< 0-based index among the instrumented runs
-  std::size_t runs = 0;               ///< instrumented runs of the row (0 when not recorded)
-  std::string note;                   ///< why the overheads exceed the Time; empty otherwise
+  double parts_seconds = 0.0;          ///< the four components' sum
+  double residual_seconds = 0.0;       ///< wall - parts
+  double overheads_seconds = 0.0;      ///< sequential + parallel overhead + imbalance
+  double time_median_seconds = 0.0;    ///< the row's Time: median of the uninstrumented runs
+  double wall_over_time = 0.0;         ///< wall / time median (0 when the median is 0)
+  bool overheads_exceed_time = false;  ///< overheads_seconds > time_median_seconds
+  std::size_t from_run = 0;            ///< 0-based index among the instrumented runs
+  std::size_t runs = 0;                ///< instrumented runs of the row (0 when not recorded)
+  std::string note;                    ///< why the overheads exceed the Time; empty otherwise
 };
 
 /// The identity of `row` computed from its accounting fields (so rows of older documents get

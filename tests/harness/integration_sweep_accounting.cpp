@@ -56,9 +56,9 @@ TEST(SweepAccounting, IdentityHoldsPerRowInSweepJsonTableAndCsv) {
   ASSERT_TRUE(fs::exists(clothbench_test::binary())) << clothbench_test::binary();
   const fs::path out = fresh_dir("accounting-identity");
   const std::string threads = std::min(2, clothbench_test::hardware_threads()) > 1 ? "1,2" : "1";
-  const Outcome o = run("sweep " + quote(kScene.string()) +
-                        " --schedulers static,dynamic:1 --threads " + threads +
-                        " --repeat 3 --retries 0 --no-plots --out " + quote(out.string()));
+  const Outcome o =
+      run("sweep " + quote(kScene.string()) + " --schedulers static,dynamic:1 --threads " +
+          threads + " --repeat 3 --retries 0 --no-plots --out " + quote(out.string()));
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const json d = read_json(out / "sweep.json");
   const auto problems = clothbench::harness::validate_sweep_document(d);
@@ -108,20 +108,24 @@ TEST(SweepAccounting, IdentityHoldsPerRowInSweepJsonTableAndCsv) {
     const double time = row["time_seconds"]["median"];
     EXPECT_EQ(id["time_median_seconds"].get<double>(), time) << where;
     EXPECT_NEAR(id["wall_over_time"].get<double>(), wall / time, 1e-12) << where;
-    EXPECT_NEAR(row["instrumented"]["cost_ratio"].get<double>(), instrumented["median"].get<double>() / time, 1e-12) << where;
+    EXPECT_NEAR(row["instrumented"]["cost_ratio"].get<double>(),
+                instrumented["median"].get<double>() / time, 1e-12)
+        << where;
     EXPECT_EQ(id["overheads_exceed_time"].get<bool>(), seq + para + imb > time) << where;
     EXPECT_EQ(id["note"].get<std::string>().empty(), !(seq + para + imb > time)) << where;
 
     // table.md: the row of the scheduler's accounting table, every number printed with the
     // same decimals, adds up to the printed wall within half a unit of the last decimal per
     // printed figure (6 figures).
-    const std::regex row_pattern(
-        "\\n\\| " + std::to_string(n) + " \\| instr\\. run (\\d) of 3 \\(median\\) \\| ([-0-9.]+) \\| "
-        "([-0-9.]+) \\| ([-0-9.]+) \\| ([-0-9.]+) \\| ([-0-9.]+) \\| ([-0-9.]+) \\| ([0-9.]+)x( \u2020)? \\|\\n");
+    const std::regex row_pattern("\\n\\| " + std::to_string(n) +
+                                 " \\| instr\\. run (\\d) of 3 \\(median\\) \\| ([-0-9.]+) \\| "
+                                 "([-0-9.]+) \\| ([-0-9.]+) \\| ([-0-9.]+) \\| ([-0-9.]+) \\| "
+                                 "([-0-9.]+) \\| ([0-9.]+)x( \u2020)? \\|\\n");
     const std::size_t section = md.find("## " + scheduler + "\n");
     ASSERT_NE(section, std::string::npos) << where;
     const std::size_t next = md.find("\n## ", section + 3);
-    const std::string part = md.substr(section, next == std::string::npos ? std::string::npos : next - section);
+    const std::string part =
+        md.substr(section, next == std::string::npos ? std::string::npos : next - section);
     std::smatch m;
     ASSERT_TRUE(std::regex_search(part, m, row_pattern)) << where << "\n" << part;
     EXPECT_EQ(std::stoul(m[1]), a["from_run"].get<std::size_t>() + 1) << where;
@@ -145,7 +149,8 @@ TEST(SweepAccounting, IdentityHoldsPerRowInSweepJsonTableAndCsv) {
     ASSERT_NE(line, csv_rows.end()) << where;
     const auto& f = *line;
     ASSERT_EQ(f.size(), header.size()) << where;
-    EXPECT_EQ(std::stoul(f[column("overheads_from_run")]), a["from_run"].get<std::size_t>()) << where;
+    EXPECT_EQ(std::stoul(f[column("overheads_from_run")]), a["from_run"].get<std::size_t>())
+        << where;
     EXPECT_EQ(f[column("instrumented_runs")], "3") << where;
     double csv_parts = 0.0;
     for (const char* k : {"sequential_overhead_s", "parallel_work_s", "parallel_overhead_s",
@@ -155,12 +160,15 @@ TEST(SweepAccounting, IdentityHoldsPerRowInSweepJsonTableAndCsv) {
     const double csv_wall = std::stod(f[column("instrumented_run_wall_s")]);
     EXPECT_NEAR(csv_parts, csv_wall, 1e-8 * csv_wall) << where;
     EXPECT_NEAR(csv_wall, wall, 1e-8 * wall) << where;
-    EXPECT_EQ(f[column("overheads_exceed_time")], id["overheads_exceed_time"].get<bool>() ? "true" : "false") << where;
+    EXPECT_EQ(f[column("overheads_exceed_time")],
+              id["overheads_exceed_time"].get<bool>() ? "true" : "false")
+        << where;
 
     // The per-row line printed by the sweep names the same run and its wall.
-    EXPECT_THAT(o.output, testing::ContainsRegex(
-                              scheduler + " +" + std::to_string(n) + " threads .*overheads from instr\\. run " +
-                              std::to_string(a["from_run"].get<int>() + 1) + " of 3 \\(median\\): wall [0-9.]+ = seq "))
+    EXPECT_THAT(o.output, testing::ContainsRegex(scheduler + " +" + std::to_string(n) +
+                                                 " threads .*overheads from instr\\. run " +
+                                                 std::to_string(a["from_run"].get<int>() + 1) +
+                                                 " of 3 \\(median\\): wall [0-9.]+ = seq "))
         << where;
   }
   fs::remove_all(out);

@@ -108,14 +108,15 @@ TEST(ReportTable, CsvGolden) {
   json d = document();
   add_derived(d);
   const std::string csv = clothbench::harness::format_csv(d);
-  EXPECT_EQ(csv.substr(0, csv.find('\n')),
-            "scheduler,scheduler_canonical,threads,oversubscribed,time_median_s,time_min_s,"
-            "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
-            "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
-            "instrumentation_cost_s,instrumentation_cost_ratio,overheads_from_run,instrumented_runs,"
-            "instrumented_run_wall_s,identity_residual_s,run_wall_over_time,overheads_exceed_time,"
-            "overheads_note,speedup,efficiency,speedup_vs_best_1thread,"
-            "efficiency_vs_best_1thread,verification,timing");
+  EXPECT_EQ(
+      csv.substr(0, csv.find('\n')),
+      "scheduler,scheduler_canonical,threads,oversubscribed,time_median_s,time_min_s,"
+      "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
+      "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
+      "instrumentation_cost_s,instrumentation_cost_ratio,overheads_from_run,instrumented_runs,"
+      "instrumented_run_wall_s,identity_residual_s,run_wall_over_time,overheads_exceed_time,"
+      "overheads_note,speedup,efficiency,speedup_vs_best_1thread,"
+      "efficiency_vs_best_1thread,verification,timing");
   EXPECT_NE(csv.find("\nstatic,static@blocks,1,false,10,9.9,10.2,0.5,0.025,0.125,9.35,0,2.5,0.01,"
                      "loops,0.01,,0,,10,0,1,false,,1,1,0.8,0.8,PASSED,-\n"),
             std::string::npos)

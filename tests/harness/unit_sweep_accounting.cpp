@@ -29,16 +29,25 @@ using testing::Not;
 /// seq 0.5 + work 3.4 + para `para` + imbalance 4.0 + residual 0.1 = run_wall.
 json made_up_row(double para, bool older_document = false) {
   const double run_wall = 0.5 + 3.4 + para + 4.0 + 0.1;
-  json accounting = {{"from_run", 1}, {"wall_seconds", run_wall}, {"step_seconds", run_wall - 0.1},
-                     {"sequential_overhead_seconds", 0.5}, {"parallel_overhead_seconds", para},
-                     {"load_imbalance_seconds", 4.0}, {"parallel_work_seconds", 3.4},
-                     {"unaccounted_seconds", 0.1}, {"imbalance_percent", 117.6},
-                     {"thread_work_cv", 0.5}, {"loops", 10}, {"chunks", 20},
+  json accounting = {{"from_run", 1},
+                     {"wall_seconds", run_wall},
+                     {"step_seconds", run_wall - 0.1},
+                     {"sequential_overhead_seconds", 0.5},
+                     {"parallel_overhead_seconds", para},
+                     {"load_imbalance_seconds", 4.0},
+                     {"parallel_work_seconds", 3.4},
+                     {"unaccounted_seconds", 0.1},
+                     {"imbalance_percent", 117.6},
+                     {"thread_work_cv", 0.5},
+                     {"loops", 10},
+                     {"chunks", 20},
                      {"thread_work_seconds", {1.7, 5.1}}};
   json instrumented = {{"level", "loops"},
-                       {"time_seconds", {{"median", run_wall}, {"min", run_wall - 1.0},
-                                         {"max", run_wall + 1.0},
-                                         {"samples", {run_wall - 1.0, run_wall, run_wall + 1.0}}}},
+                       {"time_seconds",
+                        {{"median", run_wall},
+                         {"min", run_wall - 1.0},
+                         {"max", run_wall + 1.0},
+                         {"samples", {run_wall - 1.0, run_wall, run_wall + 1.0}}}},
                        {"cost_seconds", run_wall - 20.6},
                        {"cost_percent", 100.0 * (run_wall - 20.6) / 20.6}};
   if (!older_document) {
@@ -51,18 +60,25 @@ json made_up_row(double para, bool older_document = false) {
               {"note", ""},
               {"threads", 2},
               {"oversubscribed", false},
-              {"time_seconds", {{"median", 20.6}, {"min", 20.4}, {"max", 20.9}, {"samples", {20.4, 20.6, 20.9}}}},
+              {"time_seconds",
+               {{"median", 20.6}, {"min", 20.4}, {"max", 20.9}, {"samples", {20.4, 20.6, 20.9}}}},
               {"instrumented", instrumented},
               {"accounting", accounting},
-              {"verification", {{"passed", true}, {"failures", json::array()}, {"runs", 6},
-                                {"bit_identical", true}, {"state_digest", "00"},
-                                {"max_mass_error", 0.0}}},
+              {"verification",
+               {{"passed", true},
+                {"failures", json::array()},
+                {"runs", 6},
+                {"bit_identical", true},
+                {"state_digest", "00"},
+                {"max_mass_error", 0.0}}},
               {"cg_iterations", 7},
               {"steps", 3},
               {"binding", {{"mode", "none"}, {"bound", false}, {"threads", json::array()}}},
-              {"derived", {{"speedup", nullptr}, {"efficiency", nullptr},
-                           {"speedup_vs_best_1thread", nullptr},
-                           {"efficiency_vs_best_1thread", nullptr}}}};
+              {"derived",
+               {{"speedup", nullptr},
+                {"efficiency", nullptr},
+                {"speedup_vs_best_1thread", nullptr},
+                {"efficiency_vs_best_1thread", nullptr}}}};
   if (!older_document) {
     row["accounting"]["identity"] = clothbench::harness::identity_json(*accounting_identity(row));
   }
@@ -76,9 +92,15 @@ json document_of(const std::vector<json>& rows) {
           {"updated_utc", "2024-01-01T00:00:00Z"},
           {"complete", true},
           {"command", {"clothbench", "sweep"}},
-          {"settings", {{"schedulers", {"static"}}, {"threads", {2}}, {"repeat", 3},
-                        {"warmup_steps", 2}, {"steps", 3}, {"instrument", "loops"},
-                        {"bind", "none"}, {"oversubscribe", false}}},
+          {"settings",
+           {{"schedulers", {"static"}},
+            {"threads", {2}},
+            {"repeat", 3},
+            {"warmup_steps", 2},
+            {"steps", 3},
+            {"instrument", "loops"},
+            {"bind", "none"},
+            {"oversubscribe", false}}},
           {"scene", {{"name", "made-up"}, {"file", "m.toml"}, {"hash", "abc"}, {"source", ""}}},
           {"machine", json::object()},
           {"openmp_environment", json::object()},
@@ -153,7 +175,8 @@ TEST(SweepAccounting, ALongerRunWhoseOverheadsStayUnderTheTimeShowsItsRatioButNo
                             "| 4.000 | 0.100 | 1.01x |\n"));
   EXPECT_THAT(md, Not(HasSubstr("\n\u2020 ")));
   EXPECT_THAT(clothbench::harness::format_csv(d), HasSubstr(",false,,,,,,PASSED,-\n"));
-  EXPECT_THAT(clothbench::harness::format_row_line(d["rows"][0]), Not(HasSubstr("OVERHEADS > TIME")));
+  EXPECT_THAT(clothbench::harness::format_row_line(d["rows"][0]),
+              Not(HasSubstr("OVERHEADS > TIME")));
 }
 
 TEST(SweepAccounting, OlderDocumentsWithoutTheIdentityBlockGetTheSameTable) {
@@ -163,7 +186,8 @@ TEST(SweepAccounting, OlderDocumentsWithoutTheIdentityBlockGetTheSameTable) {
   EXPECT_TRUE(clothbench::harness::validate_sweep_document(newer).empty());
   clothbench::harness::add_derived(older);
   clothbench::harness::add_derived(newer);
-  EXPECT_EQ(clothbench::harness::format_markdown(older), clothbench::harness::format_markdown(newer));
+  EXPECT_EQ(clothbench::harness::format_markdown(older),
+            clothbench::harness::format_markdown(newer));
   EXPECT_EQ(clothbench::harness::format_csv(older), clothbench::harness::format_csv(newer));
 }
 
