@@ -145,6 +145,12 @@ void write_accounting_table(std::ostringstream& out, const std::vector<const jso
   for (const std::string& f : footnotes) out << "\n" << f << "\n";
 }
 
+/// True when the row's overheads add up to more than its Time (AccountingIdentity).
+bool exceeds(const json& row) {
+  const std::optional<AccountingIdentity> id = accounting_identity(row);
+  return id && id->overheads_exceed_time;
+}
+
 }  // namespace
 
 std::string format_row_line(const json& row) {
@@ -268,11 +274,14 @@ std::string format_markdown(const json& document) {
           cell(accounting_field(row, "sequential_overhead_seconds")),
           cell(accounting_field(row, "parallel_overhead_seconds")),
           cell(accounting_field(row, "load_imbalance_seconds")),
-          cell(accounting_field(row, "imbalance_percent"), "{:.1f}"), cell(t["median"]),
-          cell(t["min"]), cell(t["max"]), cell(row["derived"]["speedup"], "{:.2f}"),
+          cell(accounting_field(row, "imbalance_percent"), "{:.1f}"),
+          // A Time below the overheads beside it carries the dagger of its footnote.
+          cell(t["median"]) + (exceeds(row) ? std::string(" ") + kExceedsMark : ""), cell(t["min"]),
+          cell(t["max"]), cell(row["derived"]["speedup"], "{:.2f}"),
           cell(row["derived"]["efficiency"], "{:.2f}"),
           cell(row["derived"]["speedup_vs_best_1thread"], "{:.2f}"),
-          passed(row) ? std::string("PASSED") : fmt::format("FAILED ({} check{})", failures, failures == 1 ? "" : "s"),
+          passed(row) ? std::string("PASSED")
+                      : fmt::format("FAILED ({} check{})", failures, failures == 1 ? "" : "s"),
           timing_label(row));
     }
     write_accounting_table(out, group, settings["instrument"].get<std::string>());
@@ -283,10 +292,11 @@ std::string format_markdown(const json& document) {
          "three are summed over the loops of one instrumented run, the median of the row's "
          "instrumented runs, not of the timed ones: the table under each scheduler names that "
          "run and shows its own wall time, which the parts add up to. Time: median wall time of "
-         "the uninstrumented runs. A row whose overheads add up to more than its Time is "
-         "marked \u2020 with the reason (its instrumented run took longer). Speed-up: against the "
-         "same scheduler's 1-thread time; a FAILED run shows "
-         "no speed-up. Timing: DISTURBED when some of the row's runs were still disturbed by "
+         "the uninstrumented runs. A row whose overheads add up to more than its Time has "
+         "\u2020 after its Time and after its run wall / Time, with the reason (its "
+         "instrumented run took longer). Speed-up: against the same scheduler's 1-thread time; "
+         "a FAILED run shows no speed-up. Timing: DISTURBED when some of the row's runs were still "
+         "disturbed by "
          "other work on the machine after their retries (another process's CPU time or "
          "preemptions, see sweep.json's disturbance records); a DISTURBED row, or one whose "
          "1-thread row is, shows no speed-up.\n";

@@ -140,8 +140,9 @@ TEST(SweepAccounting, MarkdownShowsTheRunWallTheIdentityAndTheDaggerWithItsFootn
   EXPECT_THAT(md, HasSubstr("\n\u2020 2 threads: the overheads (21.5 s) exceed the row's Time "
                             "(20.6 s, median of the uninstrumented runs): they come from "
                             "instrumented run 2 of 3, which took 25 s, 1.21x that median"));
-  // The Table 2 row itself is unchanged: its overheads beside its Time.
-  EXPECT_THAT(md, HasSubstr("| 2 | 0.5 | 17.000 | 4.000 | 117.6 | 20.600 | 20.400-20.900 |"));
+  // The Table 2 row: its overheads beside its Time, which carries the dagger.
+  EXPECT_THAT(md,
+              HasSubstr("| 2 | 0.5 | 17.000 | 4.000 | 117.6 | 20.600 \u2020 | 20.400-20.900 |"));
 }
 
 TEST(SweepAccounting, CsvAndRowLineCarryTheSameLabel) {
@@ -174,6 +175,7 @@ TEST(SweepAccounting, ALongerRunWhoseOverheadsStayUnderTheTimeShowsItsRatioButNo
   EXPECT_THAT(md, HasSubstr("| 2 | instr. run 2 of 3 (median) | 20.800 | 0.500 | 3.400 | 12.800 "
                             "| 4.000 | 0.100 | 1.01x |\n"));
   EXPECT_THAT(md, Not(HasSubstr("\n\u2020 ")));
+  EXPECT_THAT(md, HasSubstr("| 2 | 0.5 | 12.800 | 4.000 | 117.6 | 20.600 | 20.400-20.900 |"));
   EXPECT_THAT(clothbench::harness::format_csv(d), HasSubstr(",false,,,,,,PASSED,-\n"));
   EXPECT_THAT(clothbench::harness::format_row_line(d["rows"][0]),
               Not(HasSubstr("OVERHEADS > TIME")));
