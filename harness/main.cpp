@@ -212,6 +212,13 @@ int main(int argc, char** argv) {
   auto* experiment_steps_option =
       experiment_command->add_option("--steps", experiment_steps, "Override every scene's step count")
           ->check(CLI::Range(1, INT_MAX));
+  auto* experiment_retries_option =
+      experiment_command
+          ->add_option("--retries", experiment.retries,
+                       "table2 only: re-runs of a repetition that other work on the machine "
+                       "disturbed (0-100), as in `sweep --retries`")
+          ->capture_default_str()
+          ->check(CLI::Range(0, 100));
   experiment_command->add_flag("--quiet", experiment.quiet, "No per-run lines");
   experiment_command->add_flag("--no-plots", experiment_no_plots, "Do not run gnuplot");
 
@@ -283,6 +290,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr,
                      "clothbench experiment: --scene: only time-error takes a base scene (%s "
                      "runs its own scenes)\n",
+                     experiment.name.c_str());
+        return kExitBadInput;
+      }
+      if (*experiment_retries_option && experiment.name != "table2") {
+        std::fprintf(stderr,
+                     "clothbench experiment: --retries: only table2 re-runs disturbed "
+                     "repetitions (%s does not time repetitions)\n",
                      experiment.name.c_str());
         return kExitBadInput;
       }

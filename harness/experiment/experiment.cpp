@@ -45,6 +45,7 @@ int run_table2(const ExperimentOptions& options) {
   sweep.schedulers = split_list(kPaperSchedulers, "--schedulers");
   if (options.threads > 0) sweep.threads = {options.threads};
   sweep.allow_oversubscribe = options.allow_oversubscribe;
+  sweep.retries = options.retries;
   sweep.quiet = options.quiet;
   sweep.plots = options.plots;
   sweep.output_dir = options.output_dir / ("table2-" + to_string(options.size));

@@ -50,7 +50,7 @@ const fs::path kTimeErrorScene =
 /// A sweep of the tiny scene over 2 steps, one run per row, no warm-up, with `options`.
 Outcome tiny_sweep(const fs::path& out, const std::string& options) {
   return run("sweep " + quote(kScene.string()) +
-             " --steps 2 --repeat 1 --warmup-steps 0 --quiet --out " + quote(out.string()) + " " +
+             " --steps 2 --repeat 1 --retries 0 --warmup-steps 0 --quiet --out " + quote(out.string()) + " " +
              options);
 }
 
@@ -132,7 +132,7 @@ class CommandOptions : public ::testing::Test {
 TEST_F(CommandOptions, SweepBindCorePinsEachThreadToItsOwnCoreAndRecordsIt) {
   const fs::path out = fresh_dir("bind-core");
   const Outcome o = run("sweep " + quote(kScene.string()) +
-                        " --steps 2 --repeat 1 --warmup-steps 0 --no-plots --schedulers static "
+                        " --steps 2 --repeat 1 --retries 0 --warmup-steps 0 --no-plots --schedulers static "
                         "--instrument off --bind core --threads " +
                         thread_list() + " --out " + quote(out.string()));
   ASSERT_EQ(o.exit_code, 0) << o.output;
@@ -251,7 +251,7 @@ TEST_F(CommandOptions, SweepFiguresArePngsOfTheirSizesWithContent) {
   // Not --quiet: the sweep lists the figures it wrote.
   const RemoveAtExit remove{out};
   const Outcome o = run("sweep " + quote(kScene.string()) +
-                        " --steps 2 --repeat 1 --warmup-steps 0 --schedulers static,dynamic:2 "
+                        " --steps 2 --repeat 1 --retries 0 --warmup-steps 0 --schedulers static,dynamic:2 "
                         "--threads " +
                         thread_list() + " --out " + quote(out.string()));
   ASSERT_EQ(o.exit_code, 0) << o.output;

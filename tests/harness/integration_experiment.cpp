@@ -153,11 +153,12 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
 
 TEST(ExperimentBinary, Table2IsTheBoxSweep) {
   const fs::path out = fresh_dir("experiment-table2");
-  const auto outcome = run("experiment table2 --size tiny --threads 1 --quiet --no-plots --out " +
+  const auto outcome = run("experiment table2 --size tiny --threads 1 --retries 0 --quiet --no-plots --out " +
                            quote(out.string()));
   ASSERT_EQ(outcome.exit_code, 0) << outcome.output;
   const json doc = read_json(out / "table2-tiny" / "sweep.json");
   ASSERT_EQ(doc["rows"].size(), 6u);  // the paper's six schedulers at one thread
+  EXPECT_EQ(doc["settings"]["retries"].get<int>(), 0);  // --retries reaches the sweep
   for (const json& row : doc["rows"]) EXPECT_TRUE(row["verification"]["passed"].get<bool>());
   EXPECT_NE(read_text(out / "table2-tiny" / "table.md").find("## active-lists@active"),
             std::string::npos);
@@ -174,6 +175,12 @@ TEST(ExperimentBinary, BadNamesAndSizesAreExitTwo) {
                 quote(fresh_dir("experiment-bad").string()));
   EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
   EXPECT_NE(outcome.output.find("dynamic:0"), std::string::npos) << outcome.output;
+  outcome = run("experiment table2 --size tiny --retries 101");
+  EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
+  EXPECT_NE(outcome.output.find("--retries"), std::string::npos) << outcome.output;
+  outcome = run("experiment table1 --size tiny --retries 0");
+  EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
+  EXPECT_NE(outcome.output.find("only table2"), std::string::npos) << outcome.output;
 }
 
 }  // namespace

@@ -68,7 +68,7 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
   const fs::path out = fresh_dir("schema");
   const Outcome o = run("sweep " + quote(kScene.string()) +
                         " --schedulers static,dynamic:1,guided:1,active-lists --threads 1,2 "
-                        "--repeat 2 --no-plots --quiet --out " + quote(out.string()));
+                        "--repeat 2 --retries 0 --no-plots --quiet --out " + quote(out.string()));
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const json d = read_json(out / "sweep.json");
   const auto problems = clothbench::harness::validate_sweep_document(d);
@@ -157,7 +157,7 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   const fs::path killed = fresh_dir("killed"), whole = fresh_dir("whole");
   const std::vector<std::string> grid = {"--schedulers", "static,dynamic:2,guided:1,active-lists",
                                          "--threads", "1,2", "--repeat", kSanitized ? "2" : "12",
-                                         "--no-plots", "--quiet", "--out"};
+                                         "--retries", "0", "--no-plots", "--quiet", "--out"};
   std::vector<std::string> args = {binary().string(), "sweep", kScene.string()};
   args.insert(args.end(), grid.begin(), grid.end());
   args.push_back(killed.string());
@@ -209,7 +209,7 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   EXPECT_EQ(row_keys(read_json(whole / "sweep.json")), all);
 
   // Resume refuses a result made with other settings.
-  const Outcome mismatch = run("sweep " + quote(kScene.string()) + " --steps 3 --quiet --no-plots "
+  const Outcome mismatch = run("sweep " + quote(kScene.string()) + " --steps 3 --retries 0 --quiet --no-plots "
                                "--resume --out " + quote(killed.string()));
   EXPECT_EQ(mismatch.exit_code, 2) << mismatch.output;
   EXPECT_NE(mismatch.output.find("--resume"), std::string::npos) << mismatch.output;
@@ -245,7 +245,7 @@ TEST_F(SweepBinary, CtrlCStopsAfterTheCurrentRunKeepsRowsAndTheResumeCommandComp
   const fs::path out = fresh_dir("ctrl-c"), whole = fresh_dir("ctrl-c-whole");
   const fs::path log = out.string() + ".log";
   const std::vector<std::string> grid = {"--schedulers", "static,dynamic:2,guided:1,active-lists",
-                                         "--threads", "1,2", "--no-plots", "--quiet"};
+                                         "--threads", "1,2", "--retries", "0", "--no-plots", "--quiet"};
   std::vector<std::string> args = {"sweep", kScene.string()};
   args.insert(args.end(), grid.begin(), grid.end());
   for (const char* a : {"--repeat", kSanitized ? "2" : "8", "--out"}) args.emplace_back(a);
@@ -325,7 +325,7 @@ TEST_F(SweepBinary, SecondCtrlCAbortsAtOnceAndSigtermStopsLikeCtrlC) {
     const fs::path out = fresh_dir("abort"), log = out.string() + ".log";
     const pid_t child = clothbench_test::spawn(
         {"sweep", kScene.string(), "--schedulers", "static", "--threads", "1", "--steps",
-         std::to_string(steps), "--repeat", "3", "--warmup-steps", "0", "--no-plots", "--quiet",
+         std::to_string(steps), "--repeat", "3", "--retries", "0", "--warmup-steps", "0", "--no-plots", "--quiet",
          "--out", out.string()},
         log);
     ASSERT_NE(child, 0);
@@ -372,7 +372,7 @@ TEST_F(SweepBinary, SecondCtrlCAbortsAtOnceAndSigtermStopsLikeCtrlC) {
   const fs::path term = fresh_dir("sigterm"), term_log = term.string() + ".log";
   const pid_t second = clothbench_test::spawn(
       {"sweep", kScene.string(), "--schedulers", "static,dynamic:1", "--threads", "1,2",
-       "--repeat", kSanitized ? "2" : "6", "--no-plots", "--quiet", "--out", term.string()},
+       "--repeat", kSanitized ? "2" : "6", "--retries", "0", "--no-plots", "--quiet", "--out", term.string()},
       term_log);
   ASSERT_NE(second, 0);
   const std::size_t rows_before = wait_for_rows(term, 1, kWaitSeconds);
@@ -394,7 +394,7 @@ TEST_F(SweepBinary, OversubscribedRowsNeedTheFlagAndAreLabelledEverywhere) {
   const std::string over = std::to_string(hardware + 1);
   const fs::path out = fresh_dir("oversubscribed");
   const std::string common = "sweep " + quote(kScene.string()) +
-                             " --schedulers static --repeat 1 --warmup-steps 0 --no-plots "
+                             " --schedulers static --repeat 1 --retries 0 --warmup-steps 0 --no-plots "
                              "--threads 1," + over + " --out " + quote(out.string());
   const Outcome refused = run(common);
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
