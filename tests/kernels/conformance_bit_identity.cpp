@@ -155,20 +155,14 @@ TEST_P(BitIdentity, EverySchedulerAndThreadCountGivesTheSameBytes) {
   }
   std::vector<std::string> schedulers = schedulers::available_schedulers();
   const bool quick = std::getenv("CLOTHBENCH_CONFORMANCE_QUICK") != nullptr;
-  // Release builds: every thread count. CLOTHBENCH_CONFORMANCE_QUICK (the ThreadSanitizer
-  // check): 1 and 2. AddressSanitizer builds, which run the kernel 10-25 times slower, take 1
-  // and 3: the sequential path and an uneven split, whose ranges end inside tiles and lines,
-  // where an out-of-bounds index would be; 2 threads are the ThreadSanitizer check's. The
-  // multigrid cases (4-8 minutes each under a sanitizer: a sequential sparse factorisation per
-  // Newton model) take only the split each sanitizer is for: 2 threads under ThreadSanitizer,
-  // 3 under AddressSanitizer; the 1-thread path is the reference run's.
+  // Release builds: every thread count; CLOTHBENCH_CONFORMANCE_QUICK: 1 and 2. A sanitizer
+  // build (the kernel 10-25 times slower) runs every scheduler at the one split its sanitizer
+  // is for, the 1-thread path being the reference run's: ThreadSanitizer (scripts/tsan-check,
+  // which sets QUICK) 2 threads, where a race needs two; AddressSanitizer 3, an uneven split
+  // whose ranges end inside tiles and lines, where an out-of-bounds index would be.
   std::vector<int> thread_counts{1, 2, 3, 4, 8};
-  if (quick) {
-    thread_counts = {1, 2};
-  } else if (clothbench_test::kSanitized) {
-    thread_counts = {1, 3};
-  }
-  if (clothbench_test::kSanitized && GetParam().multigrid) thread_counts = {quick ? 2 : 3};
+  if (quick) thread_counts = {1, 2};
+  if (clothbench_test::kSanitized) thread_counts = {quick ? 2 : 3};
   for (const std::string& scheduler : schedulers) {
     for (int threads : thread_counts) {
       expect_identical(reference, run(scheduler, threads, GetParam()),
