@@ -309,7 +309,7 @@ std::string format_csv(const json& document) {
          "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
          "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
          "instrumentation_cost_s,instrumentation_cost_ratio,overheads_from_run,instrumented_runs,"
-         "instrumented_run_wall_s,identity_residual_s,run_wall_over_time,overheads_exceed_time,"
+         "instrumented_run_wall_s,overheads_exceed_time,"
          "overheads_note,speedup,efficiency,speedup_vs_best_1thread,"
          "efficiency_vs_best_1thread,verification,timing\n";
   for (const auto& group : grouped_rows(document)) {
@@ -329,12 +329,12 @@ std::string format_csv(const json& document) {
       const std::optional<double> ratio = instrumentation_cost_ratio(row);
       cells.push_back(ratio ? json(*ratio) : json());
       if (const std::optional<AccountingIdentity> id = accounting_identity(row)) {
+        // Its residual is unaccounted_s and its wall over Time instrumentation_cost_ratio.
         cells.insert(cells.end(),
                      {json(id->from_run), id->runs > 0 ? json(id->runs) : json(),
-                      json(id->wall_seconds), json(id->residual_seconds), json(id->wall_over_time),
-                      json(id->overheads_exceed_time), json(id->note)});
+                      json(id->wall_seconds), json(id->overheads_exceed_time), json(id->note)});
       } else {
-        cells.insert(cells.end(), 7, json());
+        cells.insert(cells.end(), 5, json());
       }
       for (const char* k : {"speedup", "efficiency", "speedup_vs_best_1thread",
                             "efficiency_vs_best_1thread"}) {

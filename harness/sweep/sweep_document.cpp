@@ -71,7 +71,9 @@ std::optional<AccountingIdentity> accounting_identity(const json& row) {
   id.load_imbalance = number("load_imbalance_seconds");
   id.parts_seconds =
       id.sequential_overhead + id.parallel_work + id.parallel_overhead + id.load_imbalance;
-  id.residual_seconds = id.wall_seconds - id.parts_seconds;
+  // The parts add up to the step timer's time; the residual is what the run spent outside it,
+  // measured (unaccounted_seconds), so the identity is a check, not a definition.
+  id.residual_seconds = number("unaccounted_seconds");
   id.overheads_seconds = id.sequential_overhead + id.parallel_overhead + id.load_imbalance;
   id.time_median_seconds = row["time_seconds"]["median"].get<double>();
   id.wall_over_time = id.time_median_seconds > 0.0 ? id.wall_seconds / id.time_median_seconds : 0.0;
@@ -160,8 +162,7 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
     instrumented["time_seconds"] = sample_statistics(timed_times);
     instrumented["cost_seconds"] = cost;
     instrumented["cost_percent"] = plain_median > 0.0 ? 100.0 * cost / plain_median : 0.0;
-    instrumented["cost_ratio"] =
-        plain_median > 0.0 ? timed_times[median_index(timed_times)] / plain_median : 0.0;
+    instrumented["cost_ratio"] = plain_median > 0.0 ? timed_times[pick] / plain_median : 0.0;
     accounting = accounting_json(timed[pick].accounting, pick);
     accounting["source"] = "median instrumented run";
     accounting["runs"] = timed.size();

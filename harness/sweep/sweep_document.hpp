@@ -81,7 +81,7 @@ struct AccountingIdentity {
   double parallel_overhead = 0.0;
   double load_imbalance = 0.0;
   double parts_seconds = 0.0;          ///< the four components' sum
-  double residual_seconds = 0.0;       ///< wall - parts
+  double residual_seconds = 0.0;       ///< time outside the step timer (unaccounted_seconds)
   double overheads_seconds = 0.0;      ///< sequential + parallel overhead + imbalance
   double time_median_seconds = 0.0;    ///< the row's Time: median of the uninstrumented runs
   double wall_over_time = 0.0;         ///< wall / time median (0 when the median is 0)

@@ -154,7 +154,7 @@ TEST(SweepAccounting, IdentityHoldsPerRowInSweepJsonTableAndCsv) {
     EXPECT_EQ(f[column("instrumented_runs")], "3") << where;
     double csv_parts = 0.0;
     for (const char* k : {"sequential_overhead_s", "parallel_work_s", "parallel_overhead_s",
-                          "load_imbalance_s", "identity_residual_s"}) {
+                          "load_imbalance_s", "unaccounted_s"}) {
       csv_parts += std::stod(f[column(k)]);
     }
     const double csv_wall = std::stod(f[column("instrumented_run_wall_s")]);

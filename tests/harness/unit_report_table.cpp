@@ -114,15 +114,15 @@ TEST(ReportTable, CsvGolden) {
       "time_max_s,sequential_overhead_s,parallel_overhead_s,load_imbalance_s,"
       "parallel_work_s,unaccounted_s,imbalance_percent,thread_work_cv,instrumentation,"
       "instrumentation_cost_s,instrumentation_cost_ratio,overheads_from_run,instrumented_runs,"
-      "instrumented_run_wall_s,identity_residual_s,run_wall_over_time,overheads_exceed_time,"
+      "instrumented_run_wall_s,overheads_exceed_time,"
       "overheads_note,speedup,efficiency,speedup_vs_best_1thread,"
       "efficiency_vs_best_1thread,verification,timing");
   EXPECT_NE(csv.find("\nstatic,static@blocks,1,false,10,9.9,10.2,0.5,0.025,0.125,9.35,0,2.5,0.01,"
-                     "loops,0.01,,0,,10,0,1,false,,1,1,0.8,0.8,PASSED,-\n"),
+                     "loops,0.01,,0,,10,false,,1,1,0.8,0.8,PASSED,-\n"),
             std::string::npos)
       << csv;
   EXPECT_NE(csv.find("\ndynamic:2,dynamic:2@blocks,4,true,4,3.96,4.08,0.5,0.025,0.125,3.35,0,2.5,"
-                     "0.01,loops,0.01,,0,,4,0,1,false,,,,,,FAILED,-\n"),
+                     "0.01,loops,0.01,,0,,4,false,,,,,,FAILED,-\n"),
             std::string::npos)
       << csv;
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 6);
