@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "kernel_fixtures.hpp"
+#include "tests/harness/sanitizer_build.hpp"
 
 namespace clothbench {
 namespace {
@@ -59,9 +60,12 @@ TEST(Drape, ClothOverABoxComesToRest) {
   schedulers::OmpStaticDriver driver;
   // At rest: the summed contact force carries the weight and nothing moves any more (the
   // cloth fell at about 1 m/s; "still" is below 1 cm/s for 10 consecutive steps).
+  // Sanitizer builds run the fall and the first contact (40 steps, every per-step check): the
+  // whole settling took 320 s under AddressSanitizer; the Release builds run it to rest.
+  const int max_steps = clothbench_test::kSanitized ? 40 : 200;
   int rest_steps = 0, step = 0;
   double ratio = 0.0;
-  for (; step < 200 && rest_steps < 10; ++step) {
+  for (; step < max_steps && rest_steps < 10; ++step) {
     const std::vector<double> before = sim.state().position;
     const kernels::StepReport r = sim.step(driver);
     ASSERT_LE(kernels::MinimiserReport::rms(r.minimiser.final), c.solver.reject_residual)
@@ -74,6 +78,9 @@ TEST(Drape, ClothOverABoxComesToRest) {
     ASSERT_GT(d.min_particle_distance, 0.0) << "a particle entered the box at step " << r.step;
     ratio = d.contact_support / d.weight;
     rest_steps = std::abs(ratio - 1.0) < 0.01 && speed < 1e-2 ? rest_steps + 1 : 0;
+  }
+  if (clothbench_test::kSanitized) {
+    return;
   }
   EXPECT_EQ(rest_steps, 10) << "not at rest after " << step << " steps; support/weight " << ratio;
   EXPECT_NEAR(ratio, 1.0, 0.01);
