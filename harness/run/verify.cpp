@@ -42,6 +42,7 @@ StateFigures measure_state(const kernels::Simulation& simulation,
   const double expected = simulation.mesh().areal_density() * cloth.size_i * cloth.size_j;
   f.mass_error = std::abs(d.total_mass - expected) / expected;
   f.ghost_offset = d.max_ghost_offset;
+  f.max_strain = d.max_strain;
   f.particle_penetration =
       simulation.obstacles().empty() ? 0.0 : std::max(0.0, -d.min_particle_distance);
   if (reference_bytes != nullptr) {
@@ -78,6 +79,11 @@ std::vector<std::string> judge_state(const StateFigures& f) {
   if (!(f.particle_penetration <= 0.0)) {
     failures.push_back(
         fmt::format("a particle is {:.3g} m inside an obstacle", f.particle_penetration));
+  }
+  if (!(f.max_strain <= kMaxStrain)) {
+    failures.push_back(fmt::format(
+        "an edge is stretched to strain {:.3g} (more than {:g}): the state has blown up",
+        f.max_strain, kMaxStrain));
   }
   if (f.reference && !f.reference->identical) {
     failures.push_back(fmt::format(

@@ -1,7 +1,7 @@
 // The one verifier of a simulation state (HPCG style: a run reports a time only when its
 // result is right). `run`, `sweep`, `stress` and `experiment` all judge a state with the same
 // criteria here - finite, mass exact to one tolerance, no crack between mesh levels, no
-// particle inside an obstacle, and bytes identical to a reference when one is given; stress
+// particle inside an obstacle, no edge stretched to twice its length, and bytes identical to a reference when one is given; stress
 // adds its stricter cell criteria on top (stress_cell.hpp).
 #pragma once
 
@@ -27,6 +27,11 @@ struct Verification {
 /// exact by construction (AMRC moves mass between levels without creating or losing any).
 inline constexpr double kMassTolerance = 1e-12;
 
+/// Largest edge strain a state may show: an edge twice its rest length means the state has
+/// blown up (a woven fabric tears long before; the hardest stress cell, a 10x softer fabric
+/// under 50 g, reached 0.47), even while every value is still finite.
+inline constexpr double kMaxStrain = 1.0;
+
 /// How a state's final bytes compare with a reference's (state_bytes of both).
 struct ReferenceComparison {
   bool identical = true;
@@ -43,6 +48,7 @@ struct StateFigures {
   double mass_error = 0.0;            ///< |total mass - density W H| / (density W H)
   double ghost_offset = 0.0;          ///< m, farthest ghost from its coarse edge's midpoint
   double particle_penetration = 0.0;  ///< m, deepest active particle inside an obstacle (0: none)
+  double max_strain = 0.0;            ///< largest strain of an active edge
   std::string state_digest;           ///< FNV-1a 64 of state_bytes ("" when not computed)
   std::optional<ReferenceComparison> reference;  ///< set when a reference was given
 };
@@ -59,7 +65,8 @@ StateFigures measure_state(const kernels::Simulation& simulation,
 
 /// One line per criterion `figures` breaks, without a step prefix: a non-finite value, a mass
 /// error above kMassTolerance (a NaN error fails too), a ghost off its midpoint (a crack), a
-/// particle inside an obstacle, bytes that differ from the reference.
+/// particle inside an obstacle, an edge strain above kMaxStrain (a blown-up state), bytes that
+/// differ from the reference.
 std::vector<std::string> judge_state(const StateFigures& figures);
 
 /// Measures and judges the current state of `simulation` (after step `step`): every failure

@@ -57,6 +57,7 @@ void judge_stress_cell(StressCellResult& r) {
   worst.mass_error = r.mass_drift;
   worst.ghost_offset = r.max_ghost_offset;
   worst.particle_penetration = r.max_particle_penetration;
+  worst.max_strain = r.max_strain;
   for (std::string& failure : judge_state(worst)) {
     // The non-finite value stopped the run at its step; the others are maxima over the run.
     r.failures.push_back(failure.starts_with("non-finite")

@@ -372,6 +372,19 @@ TEST(Verifier, CatchesAParticleInjectedIntoTheObstacle) {
   EXPECT_THAT(v.failures[0], HasSubstr("step 2: a particle is 0.0002 m inside an obstacle"));
 }
 
+TEST(Verifier, CatchesABlownUpStateWhileEveryValueIsFinite) {
+  kernels::Simulation sim(sheet_on_box());
+  settle(sim);
+  sim.state().position[3 * sim.mesh().slot(0, 0) + 2] += 1.0;  // a corner 1 m above the sheet
+  harness::Verification v;
+  const harness::StateFigures f = harness::verify_state(sim, sim.steps_done(), v);
+  EXPECT_TRUE(f.finite);
+  EXPECT_GT(f.max_strain, harness::kMaxStrain);
+  ASSERT_EQ(v.failures.size(), 1u) << ::testing::PrintToString(v.failures);
+  EXPECT_THAT(v.failures[0], HasSubstr("step 2: an edge is stretched to strain"));
+  EXPECT_THAT(v.failures[0], HasSubstr("the state has blown up"));
+}
+
 /// The adaptive sheet with ghosts on the sides of one split cell, after two passing steps;
 /// returns a ghost's slot.
 std::int64_t sheet_with_ghosts(kernels::Simulation& sim) {
