@@ -16,7 +16,9 @@
 //
 // scheduling_overhead_dynamic_k measures dynamic:1, 2 and 4 interleaved in every repetition and
 // prints whether the per-loop overhead falls with k as the chunk count does (PASSED/FAILED, a
-// run-time verdict with machine context, never asserted by a test).
+// run-time verdict with machine context, never asserted by a test; not judged when the run was
+// disturbed). Every result says whether other work took the cores meanwhile (the sweep's
+// criteria: preemptions, CPU share, load average) and whether it was oversubscribed.
 #include <omp.h>
 
 #include <algorithm>
@@ -34,6 +36,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/micro/overhead_statistics.hpp"
 #include "harness/micro/smoke.hpp"
+#include "harness/run/disturbance.hpp"
 #include "schedulers/loop_driver.hpp"
 #include "schedulers/registry.hpp"
 
@@ -142,6 +145,23 @@ std::string oversubscription_label(int threads) {
              : std::string();
 }
 
+// Whether other work took the cores during the repetitions since `before` (the sweep's
+// criteria, harness/run/disturbance.hpp): 1/0 in the counter `disturbed`, and the text
+// " DISTURBED (reasons)" for the label when it did.
+std::string disturbance_label(benchmark::State& state,
+                              const clothbench::harness::ResourceSample& before, int threads) {
+  namespace h = clothbench::harness;
+  const h::Disturbance d = h::assess_disturbance(before, h::sample_resources(), threads,
+                                                 h::hardware_threads(), h::omp_wait_policy());
+  state.counters["disturbed"] = d.disturbed ? 1 : 0;
+  state.counters["load_before"] = d.load_before;
+  state.counters["load_after"] = d.load_after;
+  if (!d.disturbed) return {};
+  std::string text = " DISTURBED (";
+  for (std::size_t i = 0; i < d.reasons.size(); ++i) text += (i > 0 ? "; " : "") + d.reasons[i];
+  return text + ")";
+}
+
 // Samples of one driver: per-loop overhead (us) of every repetition, and its ranges per loop.
 struct DriverSamples {
   std::vector<double> overhead_us;
@@ -170,6 +190,7 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
   const int inner = inner_loops(delay);
   DriverSamples samples;
   double reference_sum = 0.0;
+  const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
     const double reference = reference_seconds(delay.length, inner);
     samples.add(test_time(*driver, threads, delay.length, inner), reference, inner);
@@ -207,6 +228,7 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
       s.mean, s.low95, s.high95, s.median, s.outliers, s.outliers == 1 ? "" : "s", s.samples,
       samples.ranges_per_loop, per_chunk_ns, per_chunk_median_ns);
   label += oversubscription_label(threads);
+  label += disturbance_label(state, before, threads);
   if (clothbench::micro::smoke()) label += " [smoke]";
   state.SetLabel(label);
 }
@@ -221,6 +243,7 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
   const Delay delay = calibrate_delay(delay_target_ns);
   const int inner = inner_loops(delay);
   std::vector<DriverSamples> samples(drivers.size());
+  const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
     const double reference = reference_seconds(delay.length, inner);
     for (std::size_t d = 0; d < drivers.size(); ++d) {
@@ -247,14 +270,16 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
   state.counters["threads"] = threads;
   state.counters["oversubscribed"] = threads > clothbench::harness::hardware_threads() ? 1 : 0;
   state.counters["chunk_counts_exact"] = chunks_exact ? 1 : 0;
+  const std::string disturbed = disturbance_label(state, before, threads);
   const char* verdict = clothbench::micro::smoke() ? "not judged (smoke)"
+                        : !disturbed.empty()        ? "not judged (disturbed run)"
                         : falls && chunks_exact     ? "PASSED"
                                                     : "FAILED";
   state.counters["falls_with_k"] = falls ? 1 : 0;
   state.SetLabel(fmt::format("per-loop overhead falls with k as chunks do: {} (medians: {}; chunk "
                              "counts {}){}{}",
                              verdict, figures, chunks_exact ? "exact" : "NOT n/k",
-                             oversubscription_label(threads),
+                             oversubscription_label(threads), disturbed,
                              clothbench::micro::smoke() ? " [smoke]" : ""));
 }
 
