@@ -15,15 +15,15 @@ namespace clothbench::micro {
 
 /// Summary of the overhead samples of one benchmark (the unit of the samples, e.g. us).
 struct OverheadSummary {
-  int samples = 0;        ///< number of samples (outer repetitions)
-  double mean = 0.0;      ///< arithmetic mean
-  double sigma = 0.0;     ///< sample standard deviation (divisor n - 1; 0 for one sample)
-  double low95 = 0.0;     ///< mean - 1.96 sigma
-  double high95 = 0.0;    ///< mean + 1.96 sigma
-  double median = 0.0;    ///< middle sample; mean of the two middle ones for an even count
-  double minimum = 0.0;   ///< smallest sample
-  double maximum = 0.0;   ///< largest sample
-  int outliers = 0;       ///< samples with |sample - mean| > 3 sigma
+  int samples = 0;       ///< number of samples (outer repetitions)
+  double mean = 0.0;     ///< arithmetic mean
+  double sigma = 0.0;    ///< sample standard deviation (divisor n - 1; 0 for one sample)
+  double low95 = 0.0;    ///< mean - 1.96 sigma
+  double high95 = 0.0;   ///< mean + 1.96 sigma
+  double median = 0.0;   ///< middle sample; mean of the two middle ones for an even count
+  double minimum = 0.0;  ///< smallest sample
+  double maximum = 0.0;  ///< largest sample
+  int outliers = 0;      ///< samples with |sample - mean| > 3 sigma
 };
 
 /// Width of the 95% interval in standard deviations (normal distribution).
@@ -49,8 +49,8 @@ inline OverheadSummary summarize_overheads(std::vector<double> samples) {
   }
   std::sort(samples.begin(), samples.end());
   const std::size_t middle = samples.size() / 2;
-  s.median = samples.size() % 2 == 1 ? samples[middle]
-                                     : 0.5 * (samples[middle - 1] + samples[middle]);
+  s.median =
+      samples.size() % 2 == 1 ? samples[middle] : 0.5 * (samples[middle - 1] + samples[middle]);
   s.minimum = samples.front();
   s.maximum = samples.back();
   return s;

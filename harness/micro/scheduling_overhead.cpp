@@ -140,9 +140,9 @@ int inner_loops(const Delay& delay) {
 // " (OVERSUBSCRIBED: P threads on H hardware threads)" when P > H, else "".
 std::string oversubscription_label(int threads) {
   const int hardware = clothbench::harness::hardware_threads();
-  return threads > hardware
-             ? fmt::format(" (OVERSUBSCRIBED: {} threads on {} hardware threads)", threads, hardware)
-             : std::string();
+  return threads > hardware ? fmt::format(" (OVERSUBSCRIBED: {} threads on {} hardware threads)",
+                                          threads, hardware)
+                            : std::string();
 }
 
 // Whether other work took the cores during the repetitions since `before` (the sweep's
@@ -196,7 +196,8 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
     samples.add(test_time(*driver, threads, delay.length, inner), reference, inner);
     reference_sum += reference;
   }
-  const clothbench::micro::OverheadSummary s = clothbench::micro::summarize_overheads(samples.overhead_us);
+  const clothbench::micro::OverheadSummary s =
+      clothbench::micro::summarize_overheads(samples.overhead_us);
   const std::int64_t chunks = std::max<std::int64_t>(1, samples.ranges_per_loop);
   const double per_chunk_ns = clothbench::micro::per_chunk_overhead(s.mean, chunks, threads) * 1e3;
   const double per_chunk_median_ns =
@@ -240,7 +241,8 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
 void scheduling_overhead_dynamic_k(benchmark::State& state) {
   const std::vector<int> chunk_sizes{1, 2, 4};
   std::vector<std::unique_ptr<LoopDriver>> drivers;
-  for (int k : chunk_sizes) drivers.push_back(clothbench::schedulers::make_driver(fmt::format("dynamic:{}", k)));
+  for (int k : chunk_sizes)
+    drivers.push_back(clothbench::schedulers::make_driver(fmt::format("dynamic:{}", k)));
   const int threads = omp_get_max_threads();
   const Delay delay = calibrate_delay(delay_target_ns);
   const int inner = inner_loops(delay);
@@ -261,12 +263,14 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
   std::string figures;
   for (std::size_t d = 0; d < drivers.size(); ++d) {
     const int k = chunk_sizes[d];
-    const clothbench::micro::OverheadSummary s = clothbench::micro::summarize_overheads(samples[d].overhead_us);
-    if (samples[d].ranges_per_loop != (n + k - 1) / k || !samples[d].ranges_constant) chunks_exact = false;
+    const clothbench::micro::OverheadSummary s =
+        clothbench::micro::summarize_overheads(samples[d].overhead_us);
+    if (samples[d].ranges_per_loop != (n + k - 1) / k || !samples[d].ranges_constant)
+      chunks_exact = false;
     const double error2 = s.sigma * s.sigma / s.samples;  // squared standard error of the mean
     if (d > 0 && !(s.median < previous)) falls = false;
-    if (d > 0 && s.median - previous > clothbench::micro::kInterval95Sigmas *
-                                           std::sqrt(error2 + previous_error2)) {
+    if (d > 0 && s.median - previous >
+                     clothbench::micro::kInterval95Sigmas * std::sqrt(error2 + previous_error2)) {
       rises = true;
     }
     previous = s.median;
@@ -282,16 +286,16 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
   state.counters["chunk_counts_exact"] = chunks_exact ? 1 : 0;
   const std::string disturbed = disturbance_label(state, before, threads);
   const char* verdict = clothbench::micro::smoke() ? "not judged (smoke)"
-                        : !disturbed.empty()        ? "not judged (disturbed run)"
-                        : !chunks_exact || rises    ? "FAILED"
-                        : falls                     ? "PASSED"
-                                                    : "not resolved (within the noise)";
+                        : !disturbed.empty()       ? "not judged (disturbed run)"
+                        : !chunks_exact || rises   ? "FAILED"
+                        : falls                    ? "PASSED"
+                                                   : "not resolved (within the noise)";
   state.counters["falls_with_k"] = falls ? 1 : 0;
-  state.SetLabel(fmt::format("per-loop overhead falls with k as chunks do: {} (medians: {}; chunk "
-                             "counts {}){}{}",
-                             verdict, figures, chunks_exact ? "exact" : "NOT n/k",
-                             oversubscription_label(threads), disturbed,
-                             clothbench::micro::smoke() ? " [smoke]" : ""));
+  state.SetLabel(fmt::format(
+      "per-loop overhead falls with k as chunks do: {} (medians: {}; chunk "
+      "counts {}){}{}",
+      verdict, figures, chunks_exact ? "exact" : "NOT n/k", oversubscription_label(threads),
+      disturbed, clothbench::micro::smoke() ? " [smoke]" : ""));
 }
 
 [[maybe_unused]] const bool scheduling_overhead_registered = [] {

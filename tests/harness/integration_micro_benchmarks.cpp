@@ -10,12 +10,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
-#include <cstdlib>
 
 #include "tests/harness/clothbench_process.hpp"
 
@@ -88,8 +88,8 @@ void expect_finite_numbers(const json& b) {
 
 /// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) counted the chunks
 /// their per-chunk figure divides by exactly: ceil(n / k) for dynamic:k, one per thread for
-/// static and active-lists, the same count in every loop of those, and the per-chunk overhead is the
-/// per-loop overhead over one thread's share of them.
+/// static and active-lists, the same count in every loop of those, and the per-chunk overhead is
+/// the per-loop overhead over one thread's share of them.
 void expect_exact_chunk_counts(const json& d, int threads) {
   int dynamic_checked = 0;
   for (const json& b : d["benchmarks"]) {
