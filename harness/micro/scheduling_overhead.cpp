@@ -1,13 +1,24 @@
-// EPCC schedbench-style scheduling overhead of every registered backend.
+// Scheduling overhead of every registered backend, by the method of EPCC schedbench.
 //
-// Test: a parallel region of omp_get_max_threads() threads runs `inner` consecutive loops
-// of P x iterations_per_thread iterations through the driver; each iteration is a
-// calibrated delay (EPCC `delay()`). Reference: one thread runs inner x
-// iterations_per_thread delays without any scheduling: the ideal time of one thread's
-// share. Overhead per loop = (test - reference) / inner, in microseconds. Each benchmark
-// iteration gives one sample; the counters report the median and the 2.5 / 97.5
-// percentiles (a 95% interval) of the samples; Google Benchmark's repetitions add the
-// spread across runs. OpenMP timing uses real time (UseRealTime).
+// Test: a parallel region of P = omp_get_max_threads() threads runs `inner` consecutive loops
+// of P x iterations_per_thread iterations through the driver, along the path the cloth kernel
+// takes (kernels/loop_runner.hpp): one virtual for_range per loop, one RangeBody call per
+// range the scheduler hands out, and the per-iteration work inlined inside the range. Every
+// iteration is a delay (a floating-point chain) of about 100 ns. Reference: one thread runs the
+// same range body over one thread's share, once per loop, with no scheduling. Both are measured
+// in every outer repetition, one right after the other (so a repetition's pair shares the
+// machine's state), and overhead per loop = (test - reference) / inner. The delay is calibrated
+// by timing the reference itself at the length it is used, not by extrapolating a shorter run.
+// Each Google Benchmark iteration is one outer repetition; the counters give the mean with
+// mean +- 1.96 sigma, the median, the outlier count (overhead_statistics.hpp), and the
+// overhead per chunk: per-loop overhead / (ranges the scheduler handed out per loop / P),
+// where ranges are counted exactly in every test loop. OpenMP timing uses real time.
+//
+// scheduling_overhead_dynamic_k measures dynamic:1, 2 and 4 interleaved in every repetition and
+// prints whether the per-loop overhead falls with k as the chunk count does (PASSED/FAILED, a
+// run-time verdict with machine context, never asserted by a test; not judged when the run was
+// disturbed). Every result says whether other work took the cores meanwhile (the sweep's
+// criteria: preemptions, CPU share, load average) and whether it was oversubscribed.
 #include <omp.h>
 
 #include <algorithm>
@@ -20,72 +31,154 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <fmt/format.h>
 
+#include "harness/machine/machine_context.hpp"
+#include "harness/micro/overhead_statistics.hpp"
 #include "harness/micro/smoke.hpp"
+#include "harness/run/disturbance.hpp"
 #include "schedulers/loop_driver.hpp"
 #include "schedulers/registry.hpp"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using clothbench::schedulers::LoopDriver;
+using clothbench::schedulers::RangeBody;
 
 constexpr std::int64_t iterations_per_thread = 1024;  // loop length per thread
-constexpr double delay_microseconds = 0.1;            // work of one iteration
-constexpr double sample_target_seconds = 0.02;        // test time of one sample
-constexpr int samples_per_run = 15;                   // benchmark iterations per run
-// (a smoke run, smoke.hpp: 3 samples of one run each)
-constexpr int runs = 3;                               // Google Benchmark repetitions
+constexpr double delay_target_ns = 100.0;             // work of one iteration
+constexpr double sample_target_seconds = 0.01;        // test time of one outer repetition
+constexpr int outer_repetitions = 30;                 // samples (EPCC: >= 20)
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// EPCC delay(): a floating-point chain the compiler must execute. Not inlined, so the
-// reference and every backend run the very same machine code.
-[[gnu::noinline]] void delay(std::int64_t length) {
-  double accumulator = 0.0;
-  for (std::int64_t i = 0; i < length; ++i) accumulator += static_cast<double>(i);
-  benchmark::DoNotOptimize(accumulator);
-}
-
-// Delay length whose run time is about `microseconds`.
-std::int64_t calibrate_delay(double microseconds) {
-  std::int64_t length = 1024;
-  double elapsed = 0.0;
-  for (;;) {
-    const Clock::time_point start = Clock::now();
-    for (int repeat = 0; repeat < 100; ++repeat) delay(length);
-    elapsed = seconds_since(start) / 100.0;
-    if (elapsed > 1e-4 || length > (std::int64_t{1} << 40)) break;
-    length *= 2;
-  }
-  return std::max<std::int64_t>(
-      1, std::llround(static_cast<double>(length) * microseconds * 1e-6 / elapsed));
-}
-
-// Reference time of `inner` loops of one thread's share, without scheduling (median of 5).
-double reference_seconds(std::int64_t delay_length, int inner) {
-  std::vector<double> times;
-  for (int repeat = 0; repeat < 5; ++repeat) {
-    const Clock::time_point start = Clock::now();
-    for (int loop = 0; loop < inner; ++loop) {
-      for (std::int64_t i = 0; i < iterations_per_thread; ++i) delay(delay_length);
+// The range body of test and reference: per iteration a delay (EPCC's delay(): a chain of
+// `length` floating-point additions), inlined as the kernel's element work is, and a count of
+// the ranges. All delays of one body form one dependency chain through `sum`, so neither the
+// compiler nor the processor can overlap one delay with the next: each costs its full length
+// whether iterations come one per range (dynamic:1) or all in one (the reference).
+struct DelayRanges {
+  std::int64_t length;
+  double sum = 0.0;
+  std::int64_t ranges = 0;
+  void operator()(std::int64_t begin, std::int64_t end) {
+    double accumulator = sum;
+    for (std::int64_t i = begin; i < end; ++i) {
+      for (std::int64_t j = 0; j < length; ++j) accumulator += static_cast<double>(j);
     }
-    times.push_back(seconds_since(start));
+    benchmark::DoNotOptimize(accumulator);
+    sum = accumulator;
+    ++ranges;
   }
-  std::sort(times.begin(), times.end());
-  return times[times.size() / 2];
+};
+
+// Reference: `inner` loops of one thread's share through the same body, unscheduled (s).
+double reference_seconds(std::int64_t length, int inner) {
+  DelayRanges body{length};
+  const RangeBody range(body);
+  const Clock::time_point start = Clock::now();
+  for (int loop = 0; loop < inner; ++loop) range(0, iterations_per_thread);
+  const double seconds = seconds_since(start);
+  benchmark::DoNotOptimize(body.sum);
+  return seconds;
 }
 
-// Nearest-rank percentile of sorted samples, fraction in [0, 1].
-double percentile(const std::vector<double>& sorted, double fraction) {
-  const auto rank =
-      static_cast<std::size_t>(std::lround(fraction * static_cast<double>(sorted.size() - 1)));
-  return sorted[rank];
+// One test: `inner` loops of P x iterations_per_thread through the driver.
+struct TestTime {
+  double seconds = 0.0;
+  std::int64_t ranges = 0;  // body calls, summed over threads and loops
+};
+
+TestTime test_time(LoopDriver& driver, int threads, std::int64_t length, int inner) {
+  const std::int64_t n = iterations_per_thread * threads;
+  std::int64_t ranges = 0;
+  const Clock::time_point start = Clock::now();
+#pragma omp parallel num_threads(threads) reduction(+ : ranges)
+  {
+    DelayRanges body{length};
+    for (int loop = 0; loop < inner; ++loop) driver.for_range(n, body);
+    ranges += body.ranges;
+    benchmark::DoNotOptimize(body.sum);
+  }
+  return {seconds_since(start), ranges};
 }
+
+// The delay length whose measured time per iteration, in the reference loop, is within 5% of
+// `target_ns` (at most 8 refinements; else the last length tried), and that measured time.
+struct Delay {
+  std::int64_t length = 1;
+  double nanoseconds = 0.0;
+};
+
+Delay calibrate_delay(double target_ns) {
+  Delay delay{64, 0.0};
+  constexpr int loops = 10;
+  for (int attempt = 0;; ++attempt) {
+    double best = 1e30;
+    for (int repeat = 0; repeat < 3; ++repeat) {
+      best = std::min(best, reference_seconds(delay.length, loops));
+    }
+    delay.nanoseconds = best * 1e9 / (loops * static_cast<double>(iterations_per_thread));
+    // The time returned is always the one measured at the length returned.
+    if (std::abs(delay.nanoseconds - target_ns) < 0.05 * target_ns || attempt == 8) break;
+    delay.length = std::max<std::int64_t>(
+        1, std::llround(static_cast<double>(delay.length) * target_ns / delay.nanoseconds));
+  }
+  return delay;
+}
+
+// Loops per repetition: a test of about sample_target_seconds (one loop in a smoke run).
+int inner_loops(const Delay& delay) {
+  if (clothbench::micro::smoke()) return 1;
+  const double loop_seconds = static_cast<double>(iterations_per_thread) * delay.nanoseconds * 1e-9;
+  return std::max(1, static_cast<int>(std::lround(sample_target_seconds / loop_seconds)));
+}
+
+// " (OVERSUBSCRIBED: P threads on H hardware threads)" when P > H, else "".
+std::string oversubscription_label(int threads) {
+  const int hardware = clothbench::harness::hardware_threads();
+  return threads > hardware ? fmt::format(" (OVERSUBSCRIBED: {} threads on {} hardware threads)",
+                                          threads, hardware)
+                            : std::string();
+}
+
+// Whether other work took the cores during the repetitions since `before` (the sweep's
+// criteria, harness/run/disturbance.hpp): 1/0 in the counter `disturbed`, and the text
+// " DISTURBED (reasons)" for the label when it did.
+std::string disturbance_label(benchmark::State& state,
+                              const clothbench::harness::ResourceSample& before, int threads) {
+  namespace h = clothbench::harness;
+  const h::Disturbance d = h::assess_disturbance(before, h::sample_resources(), threads,
+                                                 h::hardware_threads(), h::omp_wait_policy());
+  state.counters["disturbed"] = d.disturbed ? 1 : 0;
+  state.counters["load_before"] = d.load_before;
+  state.counters["load_after"] = d.load_after;
+  if (!d.disturbed) return {};
+  std::string text = " DISTURBED (";
+  for (std::size_t i = 0; i < d.reasons.size(); ++i) text += (i > 0 ? "; " : "") + d.reasons[i];
+  return text + ")";
+}
+
+// Samples of one driver: per-loop overhead (us) of every repetition, and its ranges per loop.
+struct DriverSamples {
+  std::vector<double> overhead_us;
+  std::int64_t ranges_per_loop = 0;
+  bool ranges_constant = true;  // every loop of every repetition had the same range count
+  void add(const TestTime& test, double reference, int inner) {
+    overhead_us.push_back((test.seconds - reference) / inner * 1e6);
+    const std::int64_t per_loop = test.ranges / inner;
+    if (test.ranges % inner != 0 || (ranges_per_loop != 0 && per_loop != ranges_per_loop)) {
+      ranges_constant = false;
+    }
+    ranges_per_loop = std::max(ranges_per_loop, per_loop);
+  }
+};
 
 void scheduling_overhead(benchmark::State& state, const std::string& spec) {
-  std::unique_ptr<clothbench::schedulers::LoopDriver> driver;
+  std::unique_ptr<LoopDriver> driver;
   try {
     driver = clothbench::schedulers::make_driver(spec);
   } catch (const std::exception& error) {
@@ -93,41 +186,131 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
     return;
   }
   const int threads = omp_get_max_threads();
-  const std::int64_t n = iterations_per_thread * threads;
-  const std::int64_t delay_length = calibrate_delay(delay_microseconds);
-  const int inner = std::max(
-      1, static_cast<int>(sample_target_seconds / (static_cast<double>(iterations_per_thread) *
-                                                   delay_microseconds * 1e-6)));
-  const double reference = reference_seconds(delay_length, inner);
-  auto body = [delay_length](std::int64_t begin, std::int64_t end) {
-    for (std::int64_t i = begin; i < end; ++i) delay(delay_length);
-  };
-  std::vector<double> overheads;
-  overheads.reserve(samples_per_run);
+  const Delay delay = calibrate_delay(delay_target_ns);
+  const int inner = inner_loops(delay);
+  DriverSamples samples;
+  double reference_sum = 0.0;
+  const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
-    const Clock::time_point start = Clock::now();
-#pragma omp parallel num_threads(threads)
-    for (int loop = 0; loop < inner; ++loop) driver->for_range(n, body);
-    overheads.push_back((seconds_since(start) - reference) / inner * 1e6);
+    const double reference = reference_seconds(delay.length, inner);
+    samples.add(test_time(*driver, threads, delay.length, inner), reference, inner);
+    reference_sum += reference;
   }
-  std::sort(overheads.begin(), overheads.end());
-  state.counters["overhead_us"] = percentile(overheads, 0.5);
-  state.counters["overhead_us_low95"] = percentile(overheads, 0.025);
-  state.counters["overhead_us_high95"] = percentile(overheads, 0.975);
-  state.counters["reference_us"] = reference / inner * 1e6;
+  const clothbench::micro::OverheadSummary s =
+      clothbench::micro::summarize_overheads(samples.overhead_us);
+  const std::int64_t chunks = std::max<std::int64_t>(1, samples.ranges_per_loop);
+  const double per_chunk_ns = clothbench::micro::per_chunk_overhead(s.mean, chunks, threads) * 1e3;
+  const double per_chunk_median_ns =
+      clothbench::micro::per_chunk_overhead(s.median, chunks, threads) * 1e3;
+  const double repetitions = static_cast<double>(s.samples);
   state.counters["threads"] = threads;
-  state.counters["loops_per_sample"] = inner;
-  state.SetLabel(driver->note().empty() ? spec : spec + " (" + driver->note() + ")");
+  state.counters["oversubscribed"] = threads > clothbench::harness::hardware_threads() ? 1 : 0;
+  state.counters["iterations_per_loop"] = static_cast<double>(iterations_per_thread * threads);
+  state.counters["loops_per_repetition"] = inner;
+  state.counters["outer_repetitions"] = repetitions;
+  state.counters["delay_ns"] = delay.nanoseconds;
+  state.counters["delay_ns_in_reference"] =
+      reference_sum / (repetitions * inner * static_cast<double>(iterations_per_thread)) * 1e9;
+  state.counters["reference_loop_us"] = reference_sum / (repetitions * inner) * 1e6;
+  state.counters["chunks_per_loop"] = static_cast<double>(samples.ranges_per_loop);
+  state.counters["chunk_count_constant"] = samples.ranges_constant ? 1 : 0;
+  state.counters["overhead_loop_us"] = s.mean;
+  state.counters["overhead_loop_us_low95"] = s.low95;
+  state.counters["overhead_loop_us_high95"] = s.high95;
+  state.counters["overhead_loop_us_median"] = s.median;
+  state.counters["overhead_loop_us_sigma"] = s.sigma;
+  state.counters["outliers"] = s.outliers;
+  state.counters["overhead_chunk_ns"] = per_chunk_ns;
+  state.counters["overhead_chunk_ns_median"] = per_chunk_median_ns;
+  std::string label = driver->note().empty() ? spec : spec + " (" + driver->note() + ")";
+  label += fmt::format(
+      ": per loop {:.3f} us (95% {:.3f}..{:.3f}, median {:.3f}, {} outlier{} of {}), "
+      "{} chunks/loop, per chunk {:.1f} ns (median {:.1f})",
+      s.mean, s.low95, s.high95, s.median, s.outliers, s.outliers == 1 ? "" : "s", s.samples,
+      samples.ranges_per_loop, per_chunk_ns, per_chunk_median_ns);
+  label += oversubscription_label(threads);
+  label += disturbance_label(state, before, threads);
+  if (clothbench::micro::smoke()) label += " [smoke]";
+  state.SetLabel(label);
+}
+
+// dynamic:1, 2 and 4 measured side by side, each repetition running the reference and all
+// three tests. Verdict on the medians: PASSED when the per-loop overhead falls with k, FAILED
+// when the chunk counts are not n/k or a larger k costs more by over 1.96 standard errors of
+// the two means, else not resolved (a dispatch below the noise, as at 1 thread).
+void scheduling_overhead_dynamic_k(benchmark::State& state) {
+  const std::vector<int> chunk_sizes{1, 2, 4};
+  std::vector<std::unique_ptr<LoopDriver>> drivers;
+  for (int k : chunk_sizes)
+    drivers.push_back(clothbench::schedulers::make_driver(fmt::format("dynamic:{}", k)));
+  const int threads = omp_get_max_threads();
+  const Delay delay = calibrate_delay(delay_target_ns);
+  const int inner = inner_loops(delay);
+  std::vector<DriverSamples> samples(drivers.size());
+  const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
+  for (auto _ : state) {
+    const double reference = reference_seconds(delay.length, inner);
+    for (std::size_t d = 0; d < drivers.size(); ++d) {
+      samples[d].add(test_time(*drivers[d], threads, delay.length, inner), reference, inner);
+    }
+  }
+  const std::int64_t n = iterations_per_thread * threads;
+  bool chunks_exact = true;
+  bool falls = true;   // every median below the one of the next smaller k
+  bool rises = false;  // some median above it by more than 1.96 standard errors of the means
+  double previous = 0.0;
+  double previous_error2 = 0.0;
+  std::string figures;
+  for (std::size_t d = 0; d < drivers.size(); ++d) {
+    const int k = chunk_sizes[d];
+    const clothbench::micro::OverheadSummary s =
+        clothbench::micro::summarize_overheads(samples[d].overhead_us);
+    if (samples[d].ranges_per_loop != (n + k - 1) / k || !samples[d].ranges_constant)
+      chunks_exact = false;
+    const double error2 = s.sigma * s.sigma / s.samples;  // squared standard error of the mean
+    if (d > 0 && !(s.median < previous)) falls = false;
+    if (d > 0 && s.median - previous >
+                     clothbench::micro::kInterval95Sigmas * std::sqrt(error2 + previous_error2)) {
+      rises = true;
+    }
+    previous = s.median;
+    previous_error2 = error2;
+    state.counters[fmt::format("overhead_loop_us_median_dynamic{}", k)] = s.median;
+    state.counters[fmt::format("chunks_per_loop_dynamic{}", k)] =
+        static_cast<double>(samples[d].ranges_per_loop);
+    figures += fmt::format("{}dynamic:{} {:.3f} us/loop ({} chunks)", d > 0 ? ", " : "", k,
+                           s.median, samples[d].ranges_per_loop);
+  }
+  state.counters["threads"] = threads;
+  state.counters["oversubscribed"] = threads > clothbench::harness::hardware_threads() ? 1 : 0;
+  state.counters["chunk_counts_exact"] = chunks_exact ? 1 : 0;
+  const std::string disturbed = disturbance_label(state, before, threads);
+  const char* verdict = clothbench::micro::smoke() ? "not judged (smoke)"
+                        : !disturbed.empty()       ? "not judged (disturbed run)"
+                        : !chunks_exact || rises   ? "FAILED"
+                        : falls                    ? "PASSED"
+                                                   : "not resolved (within the noise)";
+  state.counters["falls_with_k"] = falls ? 1 : 0;
+  state.SetLabel(fmt::format(
+      "per-loop overhead falls with k as chunks do: {} (medians: {}; chunk "
+      "counts {}){}{}",
+      verdict, figures, chunks_exact ? "exact" : "NOT n/k", oversubscription_label(threads),
+      disturbed, clothbench::micro::smoke() ? " [smoke]" : ""));
 }
 
 [[maybe_unused]] const bool scheduling_overhead_registered = [] {
+  const int repetitions = clothbench::micro::scaled(outer_repetitions, 3);
   for (const std::string& spec : clothbench::schedulers::available_schedulers()) {
     benchmark::RegisterBenchmark(("scheduling_overhead/" + spec).c_str(), scheduling_overhead, spec)
         ->UseRealTime()
         ->Unit(benchmark::kMillisecond)
-        ->Iterations(clothbench::micro::scaled(samples_per_run, 3))
-        ->Repetitions(clothbench::micro::scaled(runs, 1));
+        ->Iterations(repetitions);
   }
+  benchmark::RegisterBenchmark("scheduling_overhead_dynamic_k/falls_with_k",
+                               scheduling_overhead_dynamic_k)
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond)
+      ->Iterations(repetitions);
   return true;
 }();
 

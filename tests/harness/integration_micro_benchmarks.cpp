@@ -8,13 +8,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
-#include <cstdlib>
 
 #include "tests/harness/clothbench_process.hpp"
 
@@ -67,7 +68,8 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
        {"list_rebuild/sequential/", "list_rebuild/parallel_prefix_sum/", "mesh_rewrite/",
         "broad_phase_evaluation/box_101/", "broad_phase_steps/box_101/", "gradient/potential/101/",
         "triad/", "skip_contact/", "skip_amrc/", "skip_inactive/active_lists/",
-        "scheduling_overhead/static@blocks/", "scheduling_overhead/active-lists@active/"}) {
+        "scheduling_overhead/static@blocks/", "scheduling_overhead/active-lists@active/",
+        "scheduling_overhead_dynamic_k/falls_with_k/"}) {
     std::string line_start = "\n";  // (not "\n" + family: GCC 12 warns falsely, -Wrestrict)
     line_start += family;
     EXPECT_THAT(o.output, HasSubstr(line_start)) << family;
@@ -82,6 +84,49 @@ void expect_finite_numbers(const json& b) {
       EXPECT_TRUE(std::isfinite(value.get<double>())) << b["name"] << ": " << key << " = " << value;
     }
   }
+}
+
+/// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) counted the chunks
+/// their per-chunk figure divides by exactly: ceil(n / k) for dynamic:k, one per thread for
+/// static and active-lists, the same count in every loop of those, and the per-chunk overhead is
+/// the per-loop overhead over one thread's share of them.
+void expect_exact_chunk_counts(const json& d, int threads) {
+  int dynamic_checked = 0;
+  for (const json& b : d["benchmarks"]) {
+    const std::string name = b["name"];
+    if (name.rfind("scheduling_overhead/", 0) == 0) {
+      EXPECT_EQ(b["threads"].get<double>(), threads) << name;
+      const auto n = static_cast<long long>(b["iterations_per_loop"].get<double>());
+      const auto chunks = static_cast<long long>(b["chunks_per_loop"].get<double>());
+      EXPECT_EQ(n, 1024LL * threads) << name;
+      const double per_thread = std::max(1.0, static_cast<double>(chunks) / threads);
+      EXPECT_NEAR(b["overhead_chunk_ns"].get<double>(),
+                  b["overhead_loop_us"].get<double>() * 1e3 / per_thread,
+                  1e-9 * std::abs(b["overhead_loop_us"].get<double>() * 1e3) + 1e-12)
+          << name;
+      for (int k : {1, 2, 3, 64}) {
+        if (name.rfind("scheduling_overhead/dynamic:" + std::to_string(k) + "@", 0) == 0) {
+          EXPECT_EQ(chunks, (n + k - 1) / k) << name;
+          EXPECT_EQ(b["chunk_count_constant"].get<double>(), 1.0) << name;
+          ++dynamic_checked;
+        }
+      }
+      if (name.rfind("scheduling_overhead/static@blocks/", 0) == 0 ||
+          name.rfind("scheduling_overhead/active-lists@active/", 0) == 0) {
+        EXPECT_EQ(chunks, threads) << name;
+        EXPECT_EQ(b["chunk_count_constant"].get<double>(), 1.0) << name;
+      }
+    }
+    if (name.rfind("scheduling_overhead_dynamic_k/", 0) == 0) {
+      EXPECT_EQ(b["chunk_counts_exact"].get<double>(), 1.0) << name;
+      EXPECT_EQ(b["chunks_per_loop_dynamic1"].get<double>(), 1024.0 * threads) << name;
+      EXPECT_EQ(b["chunks_per_loop_dynamic2"].get<double>(), 512.0 * threads) << name;
+      EXPECT_EQ(b["chunks_per_loop_dynamic4"].get<double>(), 256.0 * threads) << name;
+      EXPECT_THAT(b.value("label", ""), HasSubstr("not judged (smoke)")) << name;
+      ++dynamic_checked;
+    }
+  }
+  EXPECT_GE(dynamic_checked, 4) << "dynamic:1, 2, 3 and the dynamic:k comparison ran";
 }
 
 TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {
@@ -129,8 +174,28 @@ TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {
     if (name.rfind("triad/", 0) == 0) positive("bytes_per_second");
     if (name.rfind("broad_phase_steps/", 0) == 0) positive("pairs_tested_off");
     if (name.rfind("skip_inactive/", 0) == 0) positive("active_share");
-    if (name.rfind("scheduling_overhead/", 0) == 0) positive("loops_per_sample");
+    if (name.rfind("scheduling_overhead/", 0) == 0) positive("loops_per_repetition");
   }
+  expect_exact_chunk_counts(d, 1);
+}
+
+TEST_F(MicroBenchmarks, SchedulingOverheadCountsChunksExactlyAtTwoThreads) {
+  // The structure of the overhead figures at 2 threads (smoke size; no time is judged).
+  const char* previous = std::getenv("OMP_NUM_THREADS");
+  const std::string saved = previous != nullptr ? previous : "";
+  setenv("OMP_NUM_THREADS", "2", 1);
+  const clothbench_test::Outcome o = run_micro_smoke(
+      "--benchmark_filter='scheduling_overhead(/static@blocks|/active-lists|/dynamic:|_dynamic_k)' "
+      "--benchmark_format=json");
+  if (previous != nullptr) {
+    setenv("OMP_NUM_THREADS", saved.c_str(), 1);
+  } else {
+    unsetenv("OMP_NUM_THREADS");
+  }
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = json::parse(o.output);
+  ASSERT_GE(d["benchmarks"].size(), 4u) << o.output;
+  expect_exact_chunk_counts(d, 2);
 }
 
 }  // namespace
