@@ -5,9 +5,11 @@
 //   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
 //   clothbench stress [options]      the stress matrix, PASSED/FAILED per cell (harness/stress)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
+//   clothbench compare A.json B.json two sweeps row by row, with a U test (harness/compare)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
-// (its finished rows are kept; it prints the command that resumes it).
+// (its finished rows are kept; it prints the command that resumes it). `compare` exits 1
+// when a row is significantly slower in B beyond its --threshold.
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
@@ -22,6 +24,7 @@
 #include <exception>
 #include <iostream>
 
+#include "harness/compare/compare_command.hpp"
 #include "harness/machine/machine_context.hpp"
 #include "harness/report/sweep_table.hpp"
 #include "harness/experiment/experiment.hpp"
@@ -233,6 +236,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"md", "csv"}));
 
   clothbench::harness::StressCommand stress_command(app);
+  clothbench::harness::CompareCommand compare_command(app);
 
   try {
     app.parse(argc, argv);
@@ -253,6 +257,7 @@ int main(int argc, char** argv) {
     }
     if (*check_command) return check_scene(check_file);
     if (stress_command.selected()) return stress_command.run(argc, argv);
+    if (compare_command.selected()) return compare_command.run();
     if (*sweep_command) {
       // The OpenMP runtime reads OMP_WAIT_POLICY when it starts (libgomp: when the program
       // is loaded), so a policy that differs from the environment's restarts the command with
