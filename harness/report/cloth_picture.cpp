@@ -71,4 +71,52 @@ SurfaceMesh mesh_levels_picture(const kernels::Simulation& simulation, int max_c
   return out;
 }
 
+SurfaceMesh grid_picture(const kernels::Simulation& simulation, int max_cells_per_side) {
+  if (max_cells_per_side < 1) {
+    throw std::invalid_argument("grid_picture: cells per side (" +
+                                std::to_string(max_cells_per_side) + ") must be at least 1");
+  }
+  const kernels::ClothMesh& mesh = simulation.mesh();
+  const int cells_i = mesh.size_i() - 1, cells_j = mesh.size_j() - 1;
+  const int stride_i = (cells_i + max_cells_per_side - 1) / max_cells_per_side;
+  const int stride_j = (cells_j + max_cells_per_side - 1) / max_cells_per_side;
+  const int nodes_i = (cells_i + stride_i - 1) / stride_i + 1;
+  const int nodes_j = (cells_j + stride_j - 1) / stride_j + 1;
+  const std::vector<double> position = simulation.surface_positions();
+  const std::vector<double> contact = simulation.contact_forces();
+
+  SurfaceMesh out;
+  std::vector<double> force(static_cast<std::size_t>(nodes_i) * nodes_j, 0.0);
+  auto node = [&](int a, int b) { return static_cast<std::size_t>(a) * nodes_j + b; };
+  for (int a = 0; a < nodes_i; ++a) {
+    for (int b = 0; b < nodes_j; ++b) {
+      const int i = std::min(cells_i, a * stride_i), j = std::min(cells_j, b * stride_j);
+      out.points.emplace_back(kernels::vec3(position, mesh.slot(i, j)));
+    }
+  }
+  for (int i = 0; i <= cells_i; ++i) {  // each finest point to its nearest picture point
+    const int a = std::min(nodes_i - 1, (i + stride_i / 2) / stride_i);
+    for (int j = 0; j <= cells_j; ++j) {
+      const int b = std::min(nodes_j - 1, (j + stride_j / 2) / stride_j);
+      double& f = force[node(a, b)];
+      f = std::max(f, contact[static_cast<std::size_t>(mesh.slot(i, j))]);
+    }
+  }
+  for (int a = 0; a + 1 < nodes_i; ++a) {
+    for (int b = 0; b + 1 < nodes_j; ++b) {
+      out.quads.push_back({static_cast<std::int32_t>(node(a, b)),
+                           static_cast<std::int32_t>(node(a + 1, b)),
+                           static_cast<std::int32_t>(node(a + 1, b + 1)),
+                           static_cast<std::int32_t>(node(a, b + 1))});
+    }
+  }
+  out.point_scalars.emplace_back("contact_force_N", std::move(force));
+  return out;
+}
+
+SurfaceMesh cloth_picture(const kernels::Simulation& simulation, int max_cells_per_side) {
+  return simulation.adaptive_mesh() != nullptr ? mesh_levels_picture(simulation, max_cells_per_side)
+                                               : grid_picture(simulation, max_cells_per_side);
+}
+
 }  // namespace clothbench::harness

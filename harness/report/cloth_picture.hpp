@@ -1,6 +1,7 @@
 // The draped cloth as picture data of bounded size (issue 21): the adaptive mesh's leaves,
-// with leaves finer than a picture can show merged into square blocks, so that cloth.dat and
-// gnuplot cost a small fraction of a run whatever the mesh size.
+// with leaves finer than a picture can show merged into square blocks, or the cloth sampled
+// on a coarser grid, so that cloth.dat and gnuplot cost a small fraction of a run whatever
+// the mesh size.
 #pragma once
 
 #include "harness/output/vtk_writer.hpp"
@@ -27,5 +28,17 @@ int picture_block_level(int cells_i, int cells_j, int max_cells_per_side);
 /// are the leaves themselves, in AdaptiveMesh::leaves() order. Empty without AMRC.
 SurfaceMesh mesh_levels_picture(const kernels::Simulation& simulation,
                                 int max_cells_per_side = kPictureCellsPerSide);
+
+/// The cloth on a grid of at most max_cells_per_side cells a side: every s-th finest grid
+/// point along each side (s = ceil(cells / max_cells_per_side), the last row and column at
+/// the cloth's edge), at surface_positions(), with a "contact_force_N" point field holding
+/// the largest contact force of the finest points around it (so no contact is lost
+/// between samples). With s = 1 it is every finest quad, in grid order.
+SurfaceMesh grid_picture(const kernels::Simulation& simulation,
+                         int max_cells_per_side = kPictureCellsPerSide);
+
+/// The picture of a run's cloth: mesh_levels_picture() with AMRC, else grid_picture().
+SurfaceMesh cloth_picture(const kernels::Simulation& simulation,
+                          int max_cells_per_side = kPictureCellsPerSide);
 
 }  // namespace clothbench::harness

@@ -1,7 +1,7 @@
 // The cloth picture's data (cloth.dat) is bounded whatever the mesh size (issue 21): a
 // 1001 x 1001 mesh at its finest gives a few MB, not 100 MB; the picture still covers the
 // whole cloth, a small mesh is drawn leaf for leaf, and a block of leaves finer than the
-// picture shows the finest of them.
+// picture shows the finest of them. Without AMRC the cloth is sampled on a bounded grid.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -16,7 +16,9 @@
 
 namespace {
 
+using clothbench::harness::cloth_picture;
 using clothbench::harness::cloth_plot_data;
+using clothbench::harness::grid_picture;
 using clothbench::harness::kPictureCellsPerSide;
 using clothbench::harness::mesh_levels_picture;
 using clothbench::harness::picture_block_level;
@@ -151,6 +153,30 @@ TEST(ClothPicture, FineLeavesMergeIntoBlocksAtTheirFinestLevel) {
   const SurfaceMesh coarse = mesh_levels_picture(small, 4);
   EXPECT_EQ(coarse.quads.size(), 9u);  // blocks of 16 cells: 16 + 16 + 8 a side
   EXPECT_NEAR(total_area(coarse), 1.0, 1e-9);
+}
+
+// Without AMRC (sweep pictures): 1001^2 particles give 200 x 200 quads, every 5th point;
+// 33^2 give every finest quad. Both cover the cloth and carry the contact force field.
+TEST(ClothPicture, GridPictureIsBoundedAndCoversTheCloth) {
+  kernels::SimulationConfig big = sheet(1001, 3);
+  big.amrc.enabled = false;
+  const kernels::Simulation sim(big);
+  const SurfaceMesh picture = cloth_picture(sim);
+  EXPECT_EQ(picture.quads.size(), 200u * 200u);
+  EXPECT_LE(cloth_plot_data(picture).size(), 8'000'000u);
+  EXPECT_NEAR(total_area(picture), 1.0, 1e-9);
+  ASSERT_EQ(picture.point_scalars.size(), 1u);
+  EXPECT_EQ(picture.point_scalars[0].first, "contact_force_N");
+
+  kernels::SimulationConfig small = sheet(33, 3);
+  small.amrc.enabled = false;
+  const SurfaceMesh fine = grid_picture(kernels::Simulation(small));
+  EXPECT_EQ(fine.quads.size(), 32u * 32u);
+  EXPECT_NEAR(total_area(fine), 1.0, 1e-9);
+  // 30 cells, 4 a side: every 8th point, the last block clipped at the edge.
+  const SurfaceMesh clipped = grid_picture(kernels::Simulation(sheet(31, 1)), 4);
+  EXPECT_EQ(clipped.quads.size(), 16u);
+  EXPECT_NEAR(total_area(clipped), 1.0, 1e-9);
 }
 
 }  // namespace
