@@ -238,14 +238,21 @@ std::string cloth_colour_field(const SurfaceMesh& surface) {
   return "";
 }
 
-PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
-                       const std::filesystem::path& dir) {
-  PlotOutcome outcome;
-  const std::string field = cloth_colour_field(surface);
-  const std::vector<double>* colour = nullptr;
-  for (const auto& [name, values] : surface.point_scalars) {
-    if (name == field) colour = &values;
+namespace {
+
+/// The point field called `name`, or null.
+const std::vector<double>* point_field(const SurfaceMesh& surface, const std::string& name) {
+  for (const auto& [field, values] : surface.point_scalars) {
+    if (field == name) return &values;
   }
+  return nullptr;
+}
+
+}  // namespace
+
+std::string cloth_plot_data(const SurfaceMesh& surface) {
+  const std::string field = cloth_colour_field(surface);
+  const std::vector<double>* colour = point_field(surface, field);
   auto point_line = [&](std::int32_t p) {
     const auto& x = surface.points[static_cast<std::size_t>(p)];
     const double c = colour != nullptr ? (*colour)[static_cast<std::size_t>(p)] : x.z();
@@ -257,7 +264,15 @@ PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
     data += point_line(q[0]) + point_line(q[1]) + "\n" + point_line(q[3]) + point_line(q[2]) +
             "\n\n";
   }
-  write_file_atomically(dir / "cloth.dat", data);
+  return data;
+}
+
+PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
+                       const std::filesystem::path& dir) {
+  PlotOutcome outcome;
+  const std::string field = cloth_colour_field(surface);
+  const std::vector<double>* colour = point_field(surface, field);
+  write_file_atomically(dir / "cloth.dat", cloth_plot_data(surface));
   const std::string label = field.empty() ? "height z [m]"
                             : field == "mesh_level" ? "mesh level (0 = finest)"
                                                     : "contact force [N]";

@@ -39,8 +39,13 @@ PlotOutcome plot_sweep(const nlohmann::json& document, const std::filesystem::pa
 /// (AMRC), else "contact_force_N" when any value is non-zero, else "" (= height z).
 std::string cloth_colour_field(const SurfaceMesh& surface);
 
+/// The text of cloth.dat: one 2 x 2 pm3d patch per quad of `surface`, each point as
+/// "x y z colour" with the colour of cloth_colour_field() (height z when there is none).
+/// About 170 bytes a quad: callers bound the quads (cloth_picture.hpp), not this function.
+std::string cloth_plot_data(const SurfaceMesh& surface);
+
 /// Writes cloth.{dat,gp,png} into `dir`: a pm3d surface of `surface` (one 2x2 patch per
-/// quad), coloured by cloth_colour_field(). `title` heads the picture.
+/// quad, cloth_plot_data), coloured by cloth_colour_field(). `title` heads the picture.
 PlotOutcome plot_cloth(const SurfaceMesh& surface, const std::string& title,
                        const std::filesystem::path& dir);
 

@@ -13,6 +13,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
 #include "harness/output/vtk_writer.hpp"
+#include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
@@ -146,10 +147,11 @@ int run_scene(const RunOptions& options) {
         fmt::print("  wrote {} (the state at the failing step)\n", file.string());
       }
     }
-    // The adaptive mesh's levels over the draped cloth (cloth.png, coloured by level).
+    // The adaptive mesh's levels over the draped cloth (cloth.png, coloured by level), from
+    // at most kPictureCellsPerSide^2 quads whatever the mesh size.
     if (scene.simulation.amrc.enabled && summary.verification.passed && gnuplot_available()) {
-      const PlotOutcome plot =
-          plot_cloth(mesh_levels_surface(simulation), scene.name + ": mesh levels (0 = finest)", dir);
+      const PlotOutcome plot = plot_cloth(mesh_levels_picture(simulation),
+                                          scene.name + ": mesh levels (0 = finest)", dir);
       for (const auto& image : plot.images) fmt::print("  wrote {}\n", image.string());
       for (const auto& problem : plot.problems) fmt::print(stderr, "clothbench: {}\n", problem);
     }

@@ -392,24 +392,4 @@ SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
   return out;
 }
 
-SurfaceMesh mesh_levels_surface(const kernels::Simulation& simulation) {
-  SurfaceMesh out;
-  const kernels::AdaptiveMesh* tree = simulation.adaptive_mesh();
-  if (tree == nullptr) return out;
-  const kernels::ClothMesh& mesh = simulation.mesh();
-  const kernels::ClothState& st = simulation.state();
-  std::vector<double> level;
-  for (const auto& quad : simulation.surface_quads()) {
-    const auto first = static_cast<std::int32_t>(out.points.size());
-    for (std::int32_t corner : quad) out.points.emplace_back(kernels::vec3(st.position, corner));
-    out.quads.push_back({first, first + 1, first + 2, first + 3});
-    const int span = mesh.grid_i(quad[1]) - mesh.grid_i(quad[0]);
-    int k = 0;
-    while ((1 << k) < span) ++k;
-    level.insert(level.end(), 4, static_cast<double>(k));
-  }
-  out.point_scalars.emplace_back("mesh_level", std::move(level));
-  return out;
-}
-
 }  // namespace clothbench::harness

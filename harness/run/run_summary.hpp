@@ -101,9 +101,6 @@ nlohmann::json summary_json(const RunSummary& summary, const Scene& scene,
                             const std::string& scheduler);
 /// The current cloth surface with contact force and mesh level per point.
 SurfaceMesh surface_mesh(const kernels::Simulation& simulation);
-/// The adaptive mesh's leaves as separate quads (four points each) with a "mesh_level" field
-/// equal to the leaf's level, so a picture colours every leaf exactly; empty without AMRC.
-SurfaceMesh mesh_levels_surface(const kernels::Simulation& simulation);
 /// Peak resident set size of this process (bytes).
 std::uint64_t peak_resident_bytes();
 /// Thread count to use: `requested` (>0) or the OpenMP default; throws std::invalid_argument

@@ -11,6 +11,7 @@
 
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
+#include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/report/sweep_table.hpp"
 #include "harness/run/disturbance.hpp"
@@ -284,9 +285,9 @@ int run_sweep(const SweepOptions& options) {
       fmt::print(stderr, "clothbench: gnuplot not found; no plots written\n");
     } else {
       PlotOutcome figures = plot_sweep(document, options.output_dir);
-      PlotOutcome cloth = plot_cloth(surface_mesh(*reference_simulation),
-                                     fmt::format("{} after {} steps", scene.name, scene.steps),
-                                     options.output_dir);
+      PlotOutcome cloth =
+          plot_cloth(cloth_picture(*reference_simulation),
+                     fmt::format("{} after {} steps", scene.name, scene.steps), options.output_dir);
       figures.images.insert(figures.images.end(), cloth.images.begin(), cloth.images.end());
       figures.problems.insert(figures.problems.end(), cloth.problems.begin(), cloth.problems.end());
       for (const std::string& p : figures.problems) fmt::print(stderr, "clothbench: {}\n", p);
