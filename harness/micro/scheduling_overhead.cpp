@@ -55,34 +55,53 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The range body of test and reference: per iteration a delay (EPCC's delay(): a chain of
-// `length` floating-point additions), inlined as the kernel's element work is, and a count of
-// the ranges. All delays of one body form one dependency chain through `sum`, so neither the
-// compiler nor the processor can overlap one delay with the next: each costs its full length
-// whether iterations come one per range (dynamic:1) or all in one (the reference).
+// How the delays of one thread relate. `chained`: all delays of one body form one dependency
+// chain through `sum` and the chain's value is stored after every range, as element work that
+// writes its results does, so neither the compiler nor the processor can overlap one delay with
+// the next or with the next dispatch: each costs its full length whether iterations come one
+// per range (dynamic:1) or all in one (the reference). `independent`: EPCC schedbench's own
+// delay(): every iteration a chain of its own whose value only feeds a branch that is never
+// taken, so the processor may run the next dispatch (and the next delay) while a delay's chain
+// is still in flight: what EPCC's figures measure.
+enum class DelayKind { chained, independent };
+
+// The range body of test and reference: per iteration a delay (a chain of `length`
+// floating-point additions), inlined as the kernel's element work is, and a count of the ranges.
+template <DelayKind kind>
 struct DelayRanges {
   std::int64_t length;
   double sum = 0.0;
   std::int64_t ranges = 0;
+  std::int64_t negative = 0;  // never counts: it keeps the independent chains alive
   void operator()(std::int64_t begin, std::int64_t end) {
-    double accumulator = sum;
-    for (std::int64_t i = begin; i < end; ++i) {
-      for (std::int64_t j = 0; j < length; ++j) accumulator += static_cast<double>(j);
+    if constexpr (kind == DelayKind::chained) {
+      double accumulator = sum;
+      for (std::int64_t i = begin; i < end; ++i) {
+        for (std::int64_t j = 0; j < length; ++j) accumulator += static_cast<double>(j);
+      }
+      benchmark::DoNotOptimize(accumulator);
+      sum = accumulator;
+    } else {
+      for (std::int64_t i = begin; i < end; ++i) {
+        double accumulator = 0.0;
+        for (std::int64_t j = 0; j < length; ++j) accumulator += static_cast<double>(j);
+        if (accumulator < 0.0) ++negative;
+      }
     }
-    benchmark::DoNotOptimize(accumulator);
-    sum = accumulator;
     ++ranges;
   }
 };
 
 // Reference: `inner` loops of one thread's share through the same body, unscheduled (s).
+template <DelayKind kind>
 double reference_seconds(std::int64_t length, int inner) {
-  DelayRanges body{length};
+  DelayRanges<kind> body{length};
   const RangeBody range(body);
   const Clock::time_point start = Clock::now();
   for (int loop = 0; loop < inner; ++loop) range(0, iterations_per_thread);
   const double seconds = seconds_since(start);
   benchmark::DoNotOptimize(body.sum);
+  benchmark::DoNotOptimize(body.negative);
   return seconds;
 }
 
@@ -92,16 +111,18 @@ struct TestTime {
   std::int64_t ranges = 0;  // body calls, summed over threads and loops
 };
 
+template <DelayKind kind>
 TestTime test_time(LoopDriver& driver, int threads, std::int64_t length, int inner) {
   const std::int64_t n = iterations_per_thread * threads;
   std::int64_t ranges = 0;
   const Clock::time_point start = Clock::now();
 #pragma omp parallel num_threads(threads) reduction(+ : ranges)
   {
-    DelayRanges body{length};
+    DelayRanges<kind> body{length};
     for (int loop = 0; loop < inner; ++loop) driver.for_range(n, body);
     ranges += body.ranges;
     benchmark::DoNotOptimize(body.sum);
+    benchmark::DoNotOptimize(body.negative);
   }
   return {seconds_since(start), ranges};
 }
@@ -113,13 +134,14 @@ struct Delay {
   double nanoseconds = 0.0;
 };
 
+template <DelayKind kind>
 Delay calibrate_delay(double target_ns) {
   Delay delay{64, 0.0};
   constexpr int loops = 10;
   for (int attempt = 0;; ++attempt) {
     double best = 1e30;
     for (int repeat = 0; repeat < 3; ++repeat) {
-      best = std::min(best, reference_seconds(delay.length, loops));
+      best = std::min(best, reference_seconds<kind>(delay.length, loops));
     }
     delay.nanoseconds = best * 1e9 / (loops * static_cast<double>(iterations_per_thread));
     // The time returned is always the one measured at the length returned.
@@ -177,6 +199,7 @@ struct DriverSamples {
   }
 };
 
+template <DelayKind kind>
 void scheduling_overhead(benchmark::State& state, const std::string& spec) {
   std::unique_ptr<LoopDriver> driver;
   try {
@@ -186,14 +209,14 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
     return;
   }
   const int threads = omp_get_max_threads();
-  const Delay delay = calibrate_delay(delay_target_ns);
+  const Delay delay = calibrate_delay<kind>(delay_target_ns);
   const int inner = inner_loops(delay);
   DriverSamples samples;
   double reference_sum = 0.0;
   const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
-    const double reference = reference_seconds(delay.length, inner);
-    samples.add(test_time(*driver, threads, delay.length, inner), reference, inner);
+    const double reference = reference_seconds<kind>(delay.length, inner);
+    samples.add(test_time<kind>(*driver, threads, delay.length, inner), reference, inner);
     reference_sum += reference;
   }
   const clothbench::micro::OverheadSummary s =
@@ -223,6 +246,7 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
   state.counters["overhead_chunk_ns"] = per_chunk_ns;
   state.counters["overhead_chunk_ns_median"] = per_chunk_median_ns;
   std::string label = driver->note().empty() ? spec : spec + " (" + driver->note() + ")";
+  if (kind == DelayKind::independent) label += " [EPCC's independent delays]";
   label += fmt::format(
       ": per loop {:.3f} us (95% {:.3f}..{:.3f}, median {:.3f}, {} outlier{} of {}), "
       "{} chunks/loop, per chunk {:.1f} ns (median {:.1f})",
@@ -244,14 +268,15 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
   for (int k : chunk_sizes)
     drivers.push_back(clothbench::schedulers::make_driver(fmt::format("dynamic:{}", k)));
   const int threads = omp_get_max_threads();
-  const Delay delay = calibrate_delay(delay_target_ns);
+  const Delay delay = calibrate_delay<DelayKind::chained>(delay_target_ns);
   const int inner = inner_loops(delay);
   std::vector<DriverSamples> samples(drivers.size());
   const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
-    const double reference = reference_seconds(delay.length, inner);
+    const double reference = reference_seconds<DelayKind::chained>(delay.length, inner);
     for (std::size_t d = 0; d < drivers.size(); ++d) {
-      samples[d].add(test_time(*drivers[d], threads, delay.length, inner), reference, inner);
+      samples[d].add(test_time<DelayKind::chained>(*drivers[d], threads, delay.length, inner),
+                     reference, inner);
     }
   }
   const std::int64_t n = iterations_per_thread * threads;
@@ -301,7 +326,16 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
 [[maybe_unused]] const bool scheduling_overhead_registered = [] {
   const int repetitions = clothbench::micro::scaled(outer_repetitions, 3);
   for (const std::string& spec : clothbench::schedulers::available_schedulers()) {
-    benchmark::RegisterBenchmark(("scheduling_overhead/" + spec).c_str(), scheduling_overhead, spec)
+    benchmark::RegisterBenchmark(("scheduling_overhead/" + spec).c_str(),
+                                 scheduling_overhead<DelayKind::chained>, spec)
+        ->UseRealTime()
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(repetitions);
+  }
+  // The schedules EPCC schedbench was compared with, with its own body (DelayKind).
+  for (const std::string spec : {"static", "static:4", "dynamic:1", "dynamic:2", "guided:1"}) {
+    benchmark::RegisterBenchmark(("scheduling_overhead_epcc_body/" + spec).c_str(),
+                                 scheduling_overhead<DelayKind::independent>, spec)
         ->UseRealTime()
         ->Unit(benchmark::kMillisecond)
         ->Iterations(repetitions);

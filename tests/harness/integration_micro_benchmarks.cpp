@@ -69,7 +69,7 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
         "broad_phase_evaluation/box_101/", "broad_phase_steps/box_101/", "gradient/potential/101/",
         "triad/", "skip_contact/", "skip_amrc/", "skip_inactive/active_lists/",
         "scheduling_overhead/static@blocks/", "scheduling_overhead/active-lists@active/",
-        "scheduling_overhead_dynamic_k/falls_with_k/"}) {
+        "scheduling_overhead_dynamic_k/falls_with_k/", "scheduling_overhead_epcc_body/dynamic:1/"}) {
     std::string line_start = "\n";  // (not "\n" + family: GCC 12 warns falsely, -Wrestrict)
     line_start += family;
     EXPECT_THAT(o.output, HasSubstr(line_start)) << family;
