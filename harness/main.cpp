@@ -115,6 +115,14 @@ int main(int argc, char** argv) {
   bool no_vtk = false;
   run_command->add_flag("--no-vtk", no_vtk, "Do not write VTK surfaces");
   run_command->add_flag("--quiet", run.quiet, "No per-step lines");
+  std::filesystem::path trace_file;
+  auto* trace_option = run_command->add_option(
+      "--trace", trace_file,
+      "Record every chunk of every parallel loop into FILE (binary, JSON header; see README) "
+      "and draw FILE's stem-timeline.png");
+  int trace_step = 0;
+  auto* trace_step_option = run_command->add_option(
+      "--trace-step", trace_step, "Step of the trace's timeline (default: the most chunks)");
 
   std::filesystem::path check_file;
   auto* check_command =
@@ -253,6 +261,8 @@ int main(int argc, char** argv) {
       if (*method_option) run.method = method;
       if (*preconditioner_option) run.preconditioner = preconditioner;
       run.write_vtk = !no_vtk;
+      if (*trace_option) run.trace_file = trace_file;
+      if (*trace_step_option) run.trace_step = trace_step;
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
