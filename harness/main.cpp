@@ -191,6 +191,10 @@ int main(int argc, char** argv) {
   sweep_command->add_flag("--resume", sweep.resume, "Skip rows already in OUT/sweep.json");
   sweep_command->add_flag("--quiet", sweep.quiet, "No progress bar and no per-row lines");
   sweep_command->add_flag("--no-plots", sweep_no_plots, "Do not run gnuplot");
+  std::filesystem::path sweep_trace_dir;
+  auto* sweep_trace_option = sweep_command->add_option(
+      "--trace", sweep_trace_dir,
+      "One extra, uncounted traced run per row: DIR/<scheduler>-<threads>t.cbtrace + timeline");
 
   // `clothbench experiment NAME`: the paper's experiments, one command each.
   clothbench::harness::ExperimentOptions experiment;
@@ -292,6 +296,7 @@ int main(int argc, char** argv) {
         sweep.bind = sweep_bind == "core" ? clothbench::harness::BindMode::core
                                           : clothbench::harness::BindMode::none;
         sweep.plots = !sweep_no_plots;
+        if (*sweep_trace_option) sweep.trace_dir = sweep_trace_dir;
         sweep.command_line.assign(argv, argv + argc);
         return clothbench::harness::run_sweep(sweep);
       } catch (const std::invalid_argument& error) {

@@ -9,8 +9,6 @@
 #include <iterator>
 #include <stdexcept>
 
-#include "harness/output/atomic_file.hpp"
-
 namespace clothbench::harness {
 
 using nlohmann::json;
@@ -108,17 +106,26 @@ TraceDocument collect_trace(const kernels::ChunkTrace& trace, const json& contex
 }
 
 std::uintmax_t write_trace(const std::filesystem::path& file, const TraceDocument& document) {
-  std::string bytes = std::string(kMagic) + "\n" + document.header.dump() + "\n";
-  const std::size_t head = bytes.size();
-  const std::size_t loop_bytes = document.loops.size() * sizeof(kernels::LoopRecord);
-  const std::size_t chunk_bytes = document.chunks.size() * sizeof(kernels::ChunkRecord);
-  bytes.resize(head + loop_bytes + chunk_bytes);
-  if (loop_bytes > 0) std::memcpy(bytes.data() + head, document.loops.data(), loop_bytes);
-  if (chunk_bytes > 0) {
-    std::memcpy(bytes.data() + head + loop_bytes, document.chunks.data(), chunk_bytes);
+  // Streamed to FILE.tmp and renamed over FILE: a reader never sees a torn trace, and a
+  // trace of hundreds of MB is not copied once more in memory.
+  if (!file.parent_path().empty()) std::filesystem::create_directories(file.parent_path());
+  const std::filesystem::path temporary = file.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    const std::string head = std::string(kMagic) + "\n" + document.header.dump() + "\n";
+    out.write(head.data(), static_cast<std::streamsize>(head.size()));
+    out.write(reinterpret_cast<const char*>(document.loops.data()),
+              static_cast<std::streamsize>(document.loops.size() * sizeof(kernels::LoopRecord)));
+    out.write(reinterpret_cast<const char*>(document.chunks.data()),
+              static_cast<std::streamsize>(document.chunks.size() * sizeof(kernels::ChunkRecord)));
+    out.close();
+    if (!out) {
+      std::filesystem::remove(temporary);
+      throw std::runtime_error(file.string() + ": could not write the trace");
+    }
   }
-  write_file_atomically(file, bytes);
-  return bytes.size();
+  std::filesystem::rename(temporary, file);
+  return std::filesystem::file_size(file);
 }
 
 TraceDocument read_trace(const std::filesystem::path& file) {

@@ -38,7 +38,8 @@ std::string loop_site_name(const kernels::TraceSite& site);
 TraceDocument collect_trace(const kernels::ChunkTrace& trace, const nlohmann::json& context,
                             double record_seconds, double run_seconds);
 
-/// Writes `document` to `file` atomically (layout above); returns the bytes written.
+/// Writes `document` to `file` (layout above; via FILE.tmp, renamed); returns the bytes
+/// written. Throws std::runtime_error or std::filesystem::filesystem_error naming the file.
 std::uintmax_t write_trace(const std::filesystem::path& file, const TraceDocument& document);
 
 /// Reads a trace file; throws std::runtime_error naming the file on a bad or short file.

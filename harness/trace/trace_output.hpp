@@ -17,9 +17,10 @@ constexpr std::size_t kTraceRecordsPerThread = std::size_t{1} << 15;
 /// Writes `trace` to `file` with `context` (machine, scene, scheduler, threads) in its header,
 /// prints the figures (chunks, bytes, the estimated cost against `run_seconds`), and draws
 /// the timeline of `step` (default: the step with the most chunks) as FILE's stem +
-/// "-timeline.png" beside it when gnuplot is installed. Throws what writing throws.
+/// "-timeline.png" beside it when gnuplot is installed; `quiet`: prints only problems.
+/// Throws what writing throws.
 void write_trace_outputs(const kernels::ChunkTrace& trace, const std::filesystem::path& file,
-                         const nlohmann::json& context, double run_seconds,
-                         std::optional<int> step);
+                         const nlohmann::json& context, double run_seconds, std::optional<int> step,
+                         bool quiet = false);
 
 }  // namespace clothbench::harness

@@ -10,7 +10,8 @@
 //  - tracing changes no result: the final state's digest equals the untraced run's;
 //  - the file round-trips (write_trace, read_trace), the timeline stays under its bar cap;
 //  - `clothbench run --trace` writes the file (header with machine, scheduler, threads, cost)
-//    and a bad --trace-step is refused naming the flag, exit 2.
+//    and a bad --trace-step is refused naming the flag, exit 2; `sweep --trace DIR` writes one
+//    trace per row, whose final state equals the sweep's reference.
 // No timing is asserted.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -238,13 +239,34 @@ TEST(Trace, RunWritesTheTraceAndRefusesABadStep) {
   EXPECT_TRUE(trace.header["machine"].contains("cpu"));
   EXPECT_GT(trace.header["cost"]["record_seconds"].get<double>(), 0.0);
   EXPECT_FALSE(trace.chunks.empty());
-  if (harness::gnuplot_available()) EXPECT_TRUE(fs::exists(dir / "tiny-timeline.png"));
+  if (harness::gnuplot_available()) {
+    EXPECT_TRUE(fs::exists(dir / "tiny-timeline.png"));
+  }
 
   const auto bad = clothbench_test::run("run " + clothbench_test::quote(scene.string()) +
                                         " --steps 1 --quiet --no-vtk --trace-step 5 --trace " +
                                         clothbench_test::quote(file.string()));
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_THAT(bad.output, HasSubstr("--trace-step"));
+  fs::remove_all(dir);
+}
+
+TEST(Trace, SweepTracesOneExtraRunPerRow) {
+  const fs::path scene = fs::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
+  const fs::path dir = clothbench_test::fresh_dir("trace_sweep");
+  const auto ok = clothbench_test::run(
+      "sweep " + clothbench_test::quote(scene.string()) +
+      " --schedulers static,active-lists --threads 1 --steps 1 --repeat 1 --retries 0 "
+      "--warmup-steps 0 --instrument off --no-plots --quiet --out " +
+      clothbench_test::quote((dir / "out").string()) + " --trace " +
+      clothbench_test::quote((dir / "traces").string()));
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  for (const char* name : {"static_blocks-1t.cbtrace", "active-lists_active-1t.cbtrace"}) {
+    const harness::TraceDocument trace = harness::read_trace(dir / "traces" / name);
+    EXPECT_TRUE(trace.header["bit_identical_to_reference"].get<bool>()) << name;
+    EXPECT_EQ(trace.header["threads"], 1) << name;
+    EXPECT_FALSE(trace.chunks.empty()) << name;
+  }
   fs::remove_all(dir);
 }
 
