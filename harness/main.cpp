@@ -115,6 +115,14 @@ int main(int argc, char** argv) {
   bool no_vtk = false;
   run_command->add_flag("--no-vtk", no_vtk, "Do not write VTK surfaces");
   run_command->add_flag("--quiet", run.quiet, "No per-step lines");
+  std::filesystem::path trace_file;
+  auto* trace_option = run_command->add_option(
+      "--trace", trace_file,
+      "Record every chunk of every parallel loop into FILE (binary, JSON header; see README) "
+      "and draw FILE's stem-timeline.png");
+  int trace_step = 0;
+  auto* trace_step_option = run_command->add_option(
+      "--trace-step", trace_step, "Step of the trace's timeline (default: the most chunks)");
 
   std::filesystem::path check_file;
   auto* check_command =
@@ -183,6 +191,10 @@ int main(int argc, char** argv) {
   sweep_command->add_flag("--resume", sweep.resume, "Skip rows already in OUT/sweep.json");
   sweep_command->add_flag("--quiet", sweep.quiet, "No progress bar and no per-row lines");
   sweep_command->add_flag("--no-plots", sweep_no_plots, "Do not run gnuplot");
+  std::filesystem::path sweep_trace_dir;
+  auto* sweep_trace_option = sweep_command->add_option(
+      "--trace", sweep_trace_dir,
+      "One extra, uncounted traced run per row: DIR/<scheduler>-<threads>t.cbtrace + timeline");
 
   // `clothbench experiment NAME`: the paper's experiments, one command each.
   clothbench::harness::ExperimentOptions experiment;
@@ -253,6 +265,8 @@ int main(int argc, char** argv) {
       if (*method_option) run.method = method;
       if (*preconditioner_option) run.preconditioner = preconditioner;
       run.write_vtk = !no_vtk;
+      if (*trace_option) run.trace_file = trace_file;
+      if (*trace_step_option) run.trace_step = trace_step;
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
@@ -282,6 +296,7 @@ int main(int argc, char** argv) {
         sweep.bind = sweep_bind == "core" ? clothbench::harness::BindMode::core
                                           : clothbench::harness::BindMode::none;
         sweep.plots = !sweep_no_plots;
+        if (*sweep_trace_option) sweep.trace_dir = sweep_trace_dir;
         sweep.command_line.assign(argv, argv + argc);
         return clothbench::harness::run_sweep(sweep);
       } catch (const std::invalid_argument& error) {

@@ -27,6 +27,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
                               const MinimiserSettings& settings, double dt, double& first_alpha,
                               bool (*stop_requested)(void*), void* stop_state) {
   MinimiserReport report;
+  run.set_iteration(0);
   objective.set_step_length(dt);
   objective.begin_step(run);
   Evaluation current = objective.evaluate(run);
@@ -38,6 +39,7 @@ MinimiserReport minimise_step(StepObjective& objective, LoopRunner& run,
   double previous_gz = current.grad_dot_z;
   double previous_alpha = first_alpha, previous_slope = 0.0;
   while (true) {
+    run.set_iteration(static_cast<int>(report.iterations));  // the trace's iteration
     if (MinimiserReport::rms(current) <= settings.tolerance) {
       report.reason = StopReason::converged;
       break;

@@ -1,6 +1,6 @@
 // Runs one element loop of a simulation step through the chosen scheduler, with per-tile
 // partial sums for deterministic reductions and optional per-thread work timing
-// (MODEL.md section 7).
+// (MODEL.md section 7), and the per-chunk trace when one is given (chunk_trace.hpp).
 //
 // Every member is called by every thread of the step's parallel region (or by one thread
 // outside any region). Results of `reduce` are identical on all threads and for every
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "kernels/active_lists.hpp"
+#include "kernels/chunk_trace.hpp"
 #include "kernels/cloth_mesh.hpp"
 #include "schedulers/loop_driver.hpp"
 
@@ -102,11 +103,12 @@ inline double monotonic_seconds() {
 class LoopRunner {
  public:
   /// `lists` may be null only for a driver over blocks; throws std::logic_error for an
-  /// @active driver without lists.
+  /// @active driver without lists. `trace`, when not null, receives every loop and chunk
+  /// (its begin_step called before the parallel region).
   LoopRunner(schedulers::LoopDriver& driver, const ClothMesh& mesh, const ActiveLists* lists,
-             Instrumentation instrumentation, LoopTimes* times)
+             Instrumentation instrumentation, LoopTimes* times, ChunkTrace* trace = nullptr)
       : driver_(driver), mesh_(mesh), lists_(lists), instrumentation_(instrumentation),
-        times_(times) {
+        times_(times), trace_(trace) {
     // Over blocks an @active driver would give the same bits (only the work differs), so no
     // result check would notice the missing lists: refuse it instead of falling back.
     if (driver.space() == schedulers::IterationSpace::active && lists == nullptr) {
@@ -117,19 +119,20 @@ class LoopRunner {
 
   /// Calls body(id, acc) for every live element of `kind`; acc is a fresh Acc per tile and is
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
+  /// (Every loop call takes its caller's LoopSite by default: the trace's loop name.)
   template <class Acc, class Body>
-  void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body) {
+  void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body, LoopSite site = {}) {
     NoPrepare none;
     run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
-                  none, [&](std::int64_t id, Acc& acc, NoTileContext) { body(id, acc); });
+                  none, [&](std::int64_t id, Acc& acc, NoTileContext) { body(id, acc); }, site);
   }
 
   /// Same with no reduction.
   template <class Body>
-  void for_each(ElementKind kind, Body&& body) {
+  void for_each(ElementKind kind, Body&& body, LoopSite site = {}) {
     NoPrepare none;
     run_loop<NoReduction>(kind, nullptr, none,
-                          [&](std::int64_t id, NoReduction&, NoTileContext) { body(id); });
+                          [&](std::int64_t id, NoReduction&, NoTileContext) { body(id); }, site);
   }
 
   /// As for_each with per-tile set-up (e.g. the contact broad phase): before the elements of
@@ -139,29 +142,29 @@ class LoopRunner {
   /// locals. Over blocks every tile is prepared, over lists every tile with entries.
   template <class Acc, class Prepare, class Body>
   void for_each_prepared(ElementKind kind, TilePartials<Acc>* partials, Prepare&& prepare,
-                         Body&& body) {
+                         Body&& body, LoopSite site = {}) {
     run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
-                  prepare, body);
+                  prepare, body, site);
   }
 
   /// Same with no reduction: context = prepare(tile), body(id, context).
   template <class Prepare, class Body>
-  void for_each_prepared(ElementKind kind, Prepare&& prepare, Body&& body) {
+  void for_each_prepared(ElementKind kind, Prepare&& prepare, Body&& body, LoopSite site = {}) {
     auto tile_start = [&](std::int64_t tile, NoReduction&) { return prepare(tile); };
-    run_loop<NoReduction>(kind, nullptr, tile_start,
-                          [&](std::int64_t id, NoReduction&, const auto& context) {
-                            body(id, context);
-                          });
+    run_loop<NoReduction>(
+        kind, nullptr, tile_start,
+        [&](std::int64_t id, NoReduction&, const auto& context) { body(id, context); }, site);
   }
 
   /// Calls body(k) for every k in [0, n): work over something other than mesh elements (the
   /// line-solve preconditioner's grid lines). Timed like the element loops (it is parallel
   /// work, not sequential overhead); ends with the driver's barrier.
   template <class Body>
-  void for_index(std::int64_t n, Body&& body) {
-    timed_loop(n, [&](std::int64_t b, std::int64_t e, auto& timed_call) {
+  void for_index(std::int64_t n, Body&& body, LoopSite site = {}) {
+    timed_loop(n, -1, site, [&](std::int64_t b, std::int64_t e, auto& timed_call) {
       timed_call([&] {
         for (std::int64_t k = b; k < e; ++k) body(k);
+        return e - b;
       });
     });
   }
@@ -179,6 +182,9 @@ class LoopRunner {
     }
     return partials.sum(parity, lists_->of(use->kind).tile_begin);
   }
+
+  /// The solver iteration the following loops belong to (for the trace; 0 at step start).
+  void set_iteration(int iteration) { iteration_ = iteration; }
 
   [[nodiscard]] const ClothMesh& mesh() const { return mesh_; }
   [[nodiscard]] schedulers::IterationSpace space() const { return driver_.space(); }
@@ -208,25 +214,34 @@ class LoopRunner {
     return 0;
   }
   template <class Acc, class Prepare, class Body>
-  void run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body);
+  void run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body,
+                const LoopSite& site);
   /// driver_.for_range(n) with the loop timing: ranges(begin, end, timed_call) runs one
-  /// scheduler range and hands its work to timed_call(work), which times it and counts a chunk.
+  /// scheduler range and hands its work to timed_call(work), which times it, counts a chunk
+  /// and records it in the trace; work() returns the number of elements it visited.
+  /// `kind`: ElementKind as an int, -1 for for_index (the trace's site).
   template <class Ranges>
-  void timed_loop(std::int64_t n, Ranges&& ranges);
+  void timed_loop(std::int64_t n, int kind, const LoopSite& site, Ranges&& ranges);
 
   template <class Acc, class Prepare, class Body>
-  void run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials, Prepare& prepare,
-                       Body& body) const {
+  /// Runs the live elements of tile t; returns how many.
+  std::int64_t run_tile_blocks(ElementKind kind, std::int64_t t, Acc* partials,
+                               Prepare& prepare, Body& body) const {
     Acc acc{};
     const auto context = prepare(t, acc);
     const int per_slot = ids_per_slot(kind);
+    std::int64_t live = 0;
     for (std::int64_t s = mesh_.tile_slot_begin[t]; s < mesh_.tile_slot_begin[t + 1]; ++s) {
       for (int d = 0; d < per_slot; ++d) {
         const std::int64_t id = per_slot * s + d;
-        if (element_is_live(mesh_, kind, id)) body(id, acc, context);
+        if (element_is_live(mesh_, kind, id)) {
+          body(id, acc, context);
+          ++live;
+        }
       }
     }
     if (partials != nullptr) partials[t] = acc;
+    return live;
   }
 
   schedulers::LoopDriver& driver_;
@@ -234,20 +249,28 @@ class LoopRunner {
   const ActiveLists* lists_;
   Instrumentation instrumentation_;
   LoopTimes* times_;
+  ChunkTrace* trace_;
+  int iteration_ = 0;              // solver iteration, for the trace
   std::int64_t loop_counter_ = 0;  // identical on all threads: they run the same loops
   std::vector<Use> uses_;  // buffer in use (and loop kind) per partials array
 };
 
 template <class Acc, class Prepare, class Body>
-void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body) {
+void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Body&& body,
+                          const LoopSite& site) {
+  const int kind_code = static_cast<int>(kind);
   if (driver_.space() == schedulers::IterationSpace::blocks) {
-    timed_loop(mesh_.block_count(), [&](std::int64_t b0, std::int64_t b1, auto& timed_call) {
-      timed_call([&] {
-        for (std::int64_t t = mesh_.block_tile_begin[b0]; t < mesh_.block_tile_begin[b1]; ++t) {
-          run_tile_blocks(kind, t, partials, prepare, body);
-        }
-      });
-    });
+    timed_loop(mesh_.block_count(), kind_code, site,
+               [&](std::int64_t b0, std::int64_t b1, auto& timed_call) {
+                 timed_call([&] {
+                   std::int64_t live = 0;
+                   for (std::int64_t t = mesh_.block_tile_begin[b0];
+                        t < mesh_.block_tile_begin[b1]; ++t) {
+                     live += run_tile_blocks(kind, t, partials, prepare, body);
+                   }
+                   return live;
+                 });
+               });
     return;
   }
   const ElementList& list = lists_->of(kind);
@@ -260,7 +283,7 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Bod
   // A scheduler's range of list positions is widened/narrowed to whole tiles: every tile
   // belongs to the range holding its first entry, so tile partials never depend on the split.
   auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
-  timed_loop(n, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
+  timed_loop(n, kind_code, site, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
     const std::int64_t lo = snap(q0), hi = snap(q1);
     if (lo >= hi) return;
     timed_call([&] {
@@ -273,19 +296,48 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Bod
         }
         if (partials != nullptr) partials[t] = acc;
       }
+      return hi - lo;
     });
   });
 }
 
 template <class Ranges>
-void LoopRunner::timed_loop(std::int64_t n, Ranges&& ranges) {
+void LoopRunner::timed_loop(std::int64_t n, int kind, const LoopSite& site, Ranges&& ranges) {
   const int thread = omp_get_thread_num();
   const bool timed = instrumentation_ != Instrumentation::off && times_ != nullptr;
+  ChunkTrace* const trace = trace_;
+  const std::uint32_t instance =
+      trace == nullptr ? 0 : trace->instance_base() + static_cast<std::uint32_t>(loop_counter_);
+  std::int64_t trace_entry = 0;
+  if (trace != nullptr) {
+    // Room for the most chunks this thread can take (n), so no record below allocates.
+    trace->make_room(thread, n);
+    trace_entry = trace->ns(ChunkTrace::Clock::now());
+    if (thread == 0) trace->add_loop(site, kind, instance, iteration_, n, trace_entry);
+  }
   const double entry = timed ? monotonic_seconds() : 0.0;
   double work = 0.0;
   double last_end = entry;
   std::int64_t chunks = 0;
 
+  // One clock pair serves both the trace and the chunk timing; taskloop may run a range on
+  // another thread than this one, so the record goes to the executing thread's buffer.
+  auto traced_call = [&](std::int64_t b, std::int64_t e, auto&& range_work) {
+    const ChunkTrace::Clock::time_point t0 = ChunkTrace::Clock::now();
+    const std::int64_t elements = range_work();
+    const ChunkTrace::Clock::time_point t1 = ChunkTrace::Clock::now();
+    const int executing = omp_get_thread_num();
+    trace->add_chunk(executing, ChunkRecord{instance, executing, static_cast<std::int32_t>(b),
+                                            static_cast<std::int32_t>(e),
+                                            static_cast<std::int32_t>(elements), 0,
+                                            trace->ns(t0), trace->ns(t1)});
+    if (!timed) return;
+    last_end = std::chrono::duration<double>(t1.time_since_epoch()).count();
+    if (instrumentation_ == Instrumentation::chunks) {
+      work += std::chrono::duration<double>(t1 - t0).count();
+    }
+    ++chunks;
+  };
   auto timed_call = [&](auto&& range_work) {
     if (!timed) {
       range_work();
@@ -303,8 +355,27 @@ void LoopRunner::timed_loop(std::int64_t n, Ranges&& ranges) {
     ++chunks;
   };
 
-  auto range = [&](std::int64_t b, std::int64_t e) { ranges(b, e, timed_call); };
+  auto range = [&](std::int64_t b, std::int64_t e) {
+    if (trace == nullptr) {
+      ranges(b, e, timed_call);
+      return;
+    }
+    bool ran = false;
+    auto traced = [&](auto&& range_work) {
+      ran = true;
+      traced_call(b, e, range_work);
+    };
+    ranges(b, e, traced);
+    if (!ran) {  // a range of list positions holding no tile start: recorded, empty
+      const std::int64_t now = trace->ns(ChunkTrace::Clock::now());
+      const int executing = omp_get_thread_num();
+      trace->add_chunk(executing,
+                       ChunkRecord{instance, executing, static_cast<std::int32_t>(b),
+                                   static_cast<std::int32_t>(e), 0, 0, now, now});
+    }
+  };
   driver_.for_range(n, range);
+  if (trace != nullptr) trace->end_loop(thread, trace_entry, trace->ns(ChunkTrace::Clock::now()));
 
   if (timed) {
     // for_range ended with a barrier, so every thread's entry for this loop's parity is final;

@@ -12,6 +12,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
                                      const NewtonSettings& settings, double dt,
                                      bool (*stop_requested)(void*), void* stop_state) {
   MinimiserReport report;
+  run.set_iteration(0);
   objective.set_step_length(dt);
   objective.begin_step(run);  // initial guess; assembles the model there
   Evaluation current = objective.evaluate(run);
@@ -26,6 +27,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
   double previous_norm = 0.0, forcing = settings.forcing_max;
   bool assembled = true;
   while (true) {
+    run.set_iteration(static_cast<int>(report.iterations));  // the trace's iteration
     if (MinimiserReport::rms(current) <= settings.tolerance) {
       report.reason = StopReason::converged;
       break;

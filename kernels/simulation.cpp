@@ -66,7 +66,7 @@ void Simulation::place_initial_positions() {
 }
 
 StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation instrumentation,
-                            LoopTimes* times) {
+                            LoopTimes* times, ChunkTrace* trace) {
   if (driver.space() == schedulers::IterationSpace::active && !lists_built_) rebuild_lists();
   MinimiserSettings settings;
   settings.tolerance = config_.solver.tolerance;
@@ -90,9 +90,10 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
     const int steps_left = std::max(1, planned_steps_ - steps_done_);
     budget.deadline = start + std::max(0.0, config_.solver.time_budget - budget_spent_) / steps_left;
   }
+  if (trace != nullptr) trace->begin_step(steps_done_ + 1);
 #pragma omp parallel
   {
-    LoopRunner run(driver, mesh_, lists, instrumentation, times);
+    LoopRunner run(driver, mesh_, lists, instrumentation, times, trace);
     double first_alpha = first_alpha_;
     MinimiserReport total;
     int sub_steps = 0, rejected = 0;

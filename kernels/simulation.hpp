@@ -74,9 +74,10 @@ class Simulation {
   ~Simulation();
 
   /// Advances one step. Runs one OpenMP parallel region with the current thread count;
-  /// `times` (may be null) must hold one entry per thread of that team.
+  /// `times` (may be null) must hold one entry per thread of that team, and so must `trace`
+  /// (may be null: then nothing is recorded; ChunkTrace::start sets the team size).
   StepReport step(schedulers::LoopDriver& driver, Instrumentation instrumentation = Instrumentation::off,
-                  LoopTimes* times = nullptr);
+                  LoopTimes* times = nullptr, ChunkTrace* trace = nullptr);
 
   /// Evaluates the objective and its gradient at the current unknowns (no step taken).
   /// Used by the gradient tests and benchmarks; the gradient is then in state().gradient.

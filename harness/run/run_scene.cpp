@@ -16,7 +16,9 @@
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/run/run_summary.hpp"
+#include "harness/run/verify.hpp"
 #include "harness/scene/scene.hpp"
+#include "harness/trace/trace_output.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/registry.hpp"
 
@@ -43,6 +45,18 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
   if (options.method) solver.method = *kernels::step_method_from_string(*options.method);
   if (options.preconditioner) {
     solver.preconditioner = *kernels::preconditioner_from_string(*options.preconditioner);
+  }
+}
+
+/// --trace-step needs --trace and a step of the run (std::invalid_argument naming the flag).
+void check_trace_options(const RunOptions& options, int steps) {
+  if (!options.trace_step) return;
+  if (!options.trace_file) {
+    throw std::invalid_argument("--trace-step: needs --trace FILE");
+  }
+  if (*options.trace_step < 1 || *options.trace_step > steps) {
+    throw std::invalid_argument(fmt::format("--trace-step: {} is not a step of this run (1..{})",
+                                            *options.trace_step, steps));
   }
 }
 
@@ -91,6 +105,7 @@ int run_scene(const RunOptions& options) {
     check_memory(scene);
     threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
     driver = schedulers::make_driver(options.scheduler);
+    check_trace_options(options, scene.steps);
   } catch (const SceneError& error) {
     fmt::print(stderr, "clothbench: {}\n", error.what());
     return kExitBadInput;
@@ -124,8 +139,14 @@ int run_scene(const RunOptions& options) {
              oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
   if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());
 
+  std::unique_ptr<kernels::ChunkTrace> trace;
+  if (options.trace_file) {
+    trace = std::make_unique<kernels::ChunkTrace>();
+    trace->start(threads, kTraceRecordsPerThread);
+  }
   const ResourceSample before = sample_resources();
-  RunSummary summary = simulate(simulation, *driver, scene.steps, options.quiet);
+  RunSummary summary =
+      simulate(simulation, *driver, scene.steps, options.quiet, {}, trace.get());
   summary.disturbance = assess_disturbance(before, sample_resources(), threads,
                                            hardware_threads(), omp_wait_policy());
   summary.threads = threads;
@@ -137,6 +158,17 @@ int run_scene(const RunOptions& options) {
   nlohmann::json document = summary_json(summary, scene, driver->name());
   document["machine"] = machine_context();
   try {
+    if (trace) {
+      const nlohmann::json context = {{"machine", document["machine"]},
+                                      {"scene", scene.name},
+                                      {"scene_file", scene.file.string()},
+                                      {"scheduler", driver->name()},
+                                      {"threads", threads},
+                                      {"steps", summary.steps.size()},
+                                      {"state_digest", fnv1a64_hex(state_bytes(simulation))}};
+      write_trace_outputs(*trace, *options.trace_file, context, summary.wall_seconds,
+                          options.trace_step);
+    }
     if (options.write_vtk && summary.verification.passed) {
       write_vtk(dir / "final.vtk", surface_mesh(simulation), scene.name);
     }

@@ -21,6 +21,10 @@ struct RunOptions {
   std::filesystem::path output_dir = "results/runs";  ///< where the VTK and JSON go
   bool write_vtk = true;
   bool quiet = false;  ///< no per-step lines
+  /// --trace FILE: the per-chunk trace of every loop (harness/trace/trace_file.hpp).
+  std::optional<std::filesystem::path> trace_file;
+  /// --trace-step N: the step of the trace's timeline picture (default: most chunks).
+  std::optional<int> trace_step;
 };
 
 /// Runs the scene and prints per-step cost, final summary and `Verification: PASSED/FAILED`.

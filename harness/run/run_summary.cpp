@@ -41,14 +41,15 @@ std::string describe_event(const kernels::SceneEvent& e) {
 }
 
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet, const StepObserver& observer) {
+                    bool quiet, const StepObserver& observer, kernels::ChunkTrace* trace) {
   RunSummary summary;
   summary.method = kernels::to_string(simulation.config().solver.method);
   const bool newton = simulation.config().solver.method == kernels::StepMethod::newton;
   double cost_sum = 0.0;
   simulation.set_planned_steps(simulation.steps_done() + steps);  // shares a time budget
   for (int k = 0; k < steps; ++k) {
-    const kernels::StepReport report = simulation.step(driver);
+    const kernels::StepReport report =
+        simulation.step(driver, kernels::Instrumentation::off, nullptr, trace);
     const kernels::MinimiserReport& m = report.minimiser;
     StepRecord record{report.step,
                       m.iterations,

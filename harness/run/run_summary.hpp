@@ -72,9 +72,11 @@ struct RunSummary {
 using StepObserver = std::function<bool(const kernels::Simulation&, const StepRecord&)>;
 
 /// Runs `steps` steps, verifying the state after each; stops early on a non-finite state
-/// (or when `observer`, if given, returns false).
+/// (or when `observer`, if given, returns false). `trace`, when given (started for the
+/// team), records every loop and chunk of the steps (kernels/chunk_trace.hpp).
 RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& driver, int steps,
-                    bool quiet, const StepObserver& observer = {});
+                    bool quiet, const StepObserver& observer = {},
+                    kernels::ChunkTrace* trace = nullptr);
 /// One line describing a scripted event (what the run prints when it begins).
 std::string describe_event(const kernels::SceneEvent& event);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.

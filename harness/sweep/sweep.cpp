@@ -22,6 +22,7 @@
 #include "harness/sweep/stop_request.hpp"
 #include "harness/sweep/sweep_document.hpp"
 #include "harness/sweep/thread_binding.hpp"
+#include "harness/trace/trace_output.hpp"
 #include "schedulers/registry.hpp"
 
 namespace clothbench::harness {
@@ -46,6 +47,39 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
   MeasuredRun run = measure_run(*simulation, driver, steps, level, reference);
   if (keep != nullptr) *keep = std::move(simulation);
   return run;
+}
+
+/// sweep --trace: one more run of the row with the per-chunk trace, after its measured runs
+/// and not counted (tracing adds two clock reads per chunk: the measured runs stay untraced).
+/// Writes DIR/<scheduler>-<threads>t.cbtrace and its timeline; the header says whether the
+/// final state equals the sweep's reference bit for bit.
+void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads,
+                    const std::string& reference_bytes, const std::filesystem::path& dir,
+                    bool quiet) {
+  omp_set_num_threads(threads);
+  kernels::Simulation simulation(scene.simulation);
+  kernels::ChunkTrace trace;
+  trace.start(threads, kTraceRecordsPerThread);
+  simulation.set_planned_steps(scene.steps);
+  double seconds = 0.0;
+  for (int k = 0; k < scene.steps; ++k) {
+    seconds += simulation.step(driver, kernels::Instrumentation::off, nullptr, &trace).seconds;
+  }
+  std::string name = driver.name();
+  for (char& c : name) {
+    if (c == ':' || c == '@') c = '_';
+  }
+  const std::string bytes = state_bytes(simulation);
+  const nlohmann::json context = {{"machine", machine_context()},
+                                  {"scene", scene.name},
+                                  {"scene_file", scene.file.string()},
+                                  {"scheduler", driver.name()},
+                                  {"threads", threads},
+                                  {"steps", scene.steps},
+                                  {"state_digest", fnv1a64_hex(bytes)},
+                                  {"bit_identical_to_reference", bytes == reference_bytes}};
+  write_trace_outputs(trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context, seconds,
+                      std::nullopt, quiet);
 }
 
 /// Writes sweep.json, table.md and table.csv into `dir` (atomically, each).
@@ -239,6 +273,10 @@ int run_sweep(const SweepOptions& options) {
         if (!run) return std::nullopt;
         timed.push_back(std::move(*run));
       }
+    }
+    if (options.trace_dir) {
+      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, options.quiet);
+      if (stop.signal() != 0) return std::nullopt;
     }
     json binding = {{"mode", to_string(options.bind)},
                     {"bound", bound},

@@ -38,6 +38,8 @@ struct SweepOptions {
   bool resume = false;               ///< skip rows already in OUT/sweep.json
   bool quiet = false;                ///< no progress bar, no per-row lines
   bool plots = true;                 ///< run gnuplot at the end
+  /// --trace DIR: one extra traced run per row, DIR/<scheduler>-<threads>t.cbtrace (+ timeline)
+  std::optional<std::filesystem::path> trace_dir;
   std::filesystem::path output_dir = "results/latest";
   std::vector<std::string> command_line;  ///< argv, recorded in the result
 };
