@@ -22,6 +22,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -184,6 +185,43 @@ std::string disturbance_label(benchmark::State& state,
   return text + ")";
 }
 
+// The median round trip (ns) of a cache line bounced between threads 0 and 1 of a 2-thread
+// team, over 11 samples of 1000 round trips each (0 when fewer than 2 threads may run). A
+// dynamic dispatch costs about one such transfer, and on a VM whose virtual cores move between
+// host cores it changes from run to run: measured before and after the repetitions, it says
+// which state a result was taken in. 0 as well on a single hardware thread, where the two
+// spinning threads would take turns on one core.
+double core_round_trip_ns(int threads) {
+  if (threads < 2 || clothbench::harness::hardware_threads() < 2) return 0.0;
+  constexpr int trips = 1000;
+  std::vector<double> samples;
+  alignas(64) std::atomic<int> ball{0};
+#pragma omp parallel num_threads(2)
+  {
+    const int me = omp_get_thread_num();
+    const bool pair = omp_get_num_threads() == 2;  // the same on both threads
+    for (int sample = 0; pair && sample < 11; ++sample) {
+#pragma omp barrier
+      const Clock::time_point start = Clock::now();
+      for (int trip = 0; trip < trips; ++trip) {
+        const int mine = 2 * trip + me;  // thread 0 serves the even values, 1 the odd ones
+        while (ball.load(std::memory_order_acquire) != mine) {
+        }
+        ball.store(mine + 1, std::memory_order_release);
+      }
+      const double seconds = seconds_since(start);
+#pragma omp barrier
+      if (me == 0) {
+        samples.push_back(seconds / trips * 1e9);
+        ball.store(0, std::memory_order_relaxed);
+      }
+    }
+  }
+  if (samples.empty()) return 0.0;
+  std::nth_element(samples.begin(), samples.begin() + 5, samples.end());
+  return samples[5];
+}
+
 // Samples of one driver: per-loop overhead (us) of every repetition, and its ranges per loop.
 struct DriverSamples {
   std::vector<double> overhead_us;
@@ -213,6 +251,7 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
   const int inner = inner_loops(delay);
   DriverSamples samples;
   double reference_sum = 0.0;
+  const double round_trip_before = core_round_trip_ns(threads);
   const clothbench::harness::ResourceSample before = clothbench::harness::sample_resources();
   for (auto _ : state) {
     const double reference = reference_seconds<kind>(delay.length, inner);
@@ -252,6 +291,13 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
       "{} chunks/loop, per chunk {:.1f} ns (median {:.1f})",
       s.mean, s.low95, s.high95, s.median, s.outliers, s.outliers == 1 ? "" : "s", s.samples,
       samples.ranges_per_loop, per_chunk_ns, per_chunk_median_ns);
+  const double round_trip_after = core_round_trip_ns(threads);
+  state.counters["core_round_trip_ns_before"] = round_trip_before;
+  state.counters["core_round_trip_ns_after"] = round_trip_after;
+  if (threads >= 2) {
+    label += fmt::format(", core round trip {:.0f}/{:.0f} ns before/after", round_trip_before,
+                         round_trip_after);
+  }
   label += oversubscription_label(threads);
   label += disturbance_label(state, before, threads);
   if (clothbench::micro::smoke()) label += " [smoke]";

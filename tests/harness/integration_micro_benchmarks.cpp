@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "tests/harness/clothbench_process.hpp"
 
@@ -99,6 +100,14 @@ void expect_exact_chunk_counts(const json& d, int threads) {
       const auto n = static_cast<long long>(b["iterations_per_loop"].get<double>());
       const auto chunks = static_cast<long long>(b["chunks_per_loop"].get<double>());
       EXPECT_EQ(n, 1024LL * threads) << name;
+      // The core-to-core round trip is measured with a pair of threads on separate cores only.
+      for (const char* key : {"core_round_trip_ns_before", "core_round_trip_ns_after"}) {
+        if (threads >= 2 && std::thread::hardware_concurrency() >= 2) {
+          EXPECT_GT(b[key].get<double>(), 0.0) << name << ": " << key;
+        } else {
+          EXPECT_EQ(b[key].get<double>(), 0.0) << name << ": " << key;
+        }
+      }
       const double per_thread = std::max(1.0, static_cast<double>(chunks) / threads);
       EXPECT_NEAR(b["overhead_chunk_ns"].get<double>(),
                   b["overhead_loop_us"].get<double>() * 1e3 / per_thread,
