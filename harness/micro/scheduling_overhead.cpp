@@ -186,21 +186,22 @@ std::string disturbance_label(benchmark::State& state,
 }
 
 // The median round trip (ns) of a cache line bounced between threads 0 and 1 of a 2-thread
-// team, over 11 samples of 1000 round trips each (0 when fewer than 2 threads may run). A
-// dynamic dispatch costs about one such transfer, and on a VM whose virtual cores move between
-// host cores it changes from run to run: measured before and after the repetitions, it says
-// which state a result was taken in. 0 as well on a single hardware thread, where the two
+// team, over 11 samples of 1000 round trips each (3 of 50 in a smoke run): machine context
+// for the dispatch costs, which on this VM change from run to run (README, "Scheduling
+// overhead"). 0 with fewer than 2 threads, and on a single hardware thread, where the two
 // spinning threads would take turns on one core.
 double core_round_trip_ns(int threads) {
   if (threads < 2 || clothbench::harness::hardware_threads() < 2) return 0.0;
-  constexpr int trips = 1000;
+  // A smoke run (tests, beside other tests on the same cores) bounces far less.
+  const int trips = clothbench::micro::smoke() ? 50 : 1000;
+  const int sample_count = clothbench::micro::smoke() ? 3 : 11;
   std::vector<double> samples;
   alignas(64) std::atomic<int> ball{0};
 #pragma omp parallel num_threads(2)
   {
     const int me = omp_get_thread_num();
     const bool pair = omp_get_num_threads() == 2;  // the same on both threads
-    for (int sample = 0; pair && sample < 11; ++sample) {
+    for (int sample = 0; pair && sample < sample_count; ++sample) {
 #pragma omp barrier
       const Clock::time_point start = Clock::now();
       for (int trip = 0; trip < trips; ++trip) {
@@ -218,8 +219,9 @@ double core_round_trip_ns(int threads) {
     }
   }
   if (samples.empty()) return 0.0;
-  std::nth_element(samples.begin(), samples.begin() + 5, samples.end());
-  return samples[5];
+  const auto middle = samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2);
+  std::nth_element(samples.begin(), middle, samples.end());
+  return *middle;
 }
 
 // Samples of one driver: per-loop overhead (us) of every repetition, and its ranges per loop.
