@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "harness/compare/compare_statistics.hpp"
 #include "harness/micro/smoke.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
@@ -40,12 +41,7 @@ SimulationConfig scene_config(const std::string& relative) {
   return c;
 }
 
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
+using clothbench::harness::median;  // of a non-empty sample (harness/compare)
 
 /// The scene's cloth lowered onto its obstacle's top (z = 0.25 in both scenes) and draped for
 /// a few short steps, so that part of it is in contact.

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "harness/micro/box_scene.hpp"
+#include "harness/compare/compare_statistics.hpp"
 #include "harness/micro/smoke.hpp"
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
@@ -49,12 +50,7 @@ double thread_cpu_seconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
+using clothbench::harness::median;  // of a non-empty sample (harness/compare)
 
 using clothbench::micro::box_scene;
 
