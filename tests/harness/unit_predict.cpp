@@ -101,6 +101,23 @@ TEST(Predict, OneHeavyIterationGivesTheImbalanceWorkedOutByHand) {
   EXPECT_NEAR(g.makespan, 8 * kMs, 1e-12);
 }
 
+TEST(Predict, GuidedChunksFollowLibgompsRule) {
+  // libgomp: chunk = max(k, ceil(remaining / P)). 5 iterations at 2 threads: 3, 1, 1; at
+  // k = 2: 3, 2.
+  const auto w = harness::build_workload(synthetic_trace({std::vector<double>(5, 1.0)}, 0.0),
+                                         "synthetic");
+  auto sizes = [&](const std::string& spec) {
+    std::vector<std::int64_t> out;
+    const auto s = harness::simulate_loop(ScheduleModel::parse(spec, OmpRuntimeModel::libgomp),
+                                          w.loops[0].costs, 2, 0.0, true);
+    for (const auto& c : s.assignment) out.push_back(c.end - c.begin);
+    return out;
+  };
+  EXPECT_EQ(sizes("guided:1"), (std::vector<std::int64_t>{3, 1, 1}));
+  EXPECT_EQ(sizes("guided:2"), (std::vector<std::int64_t>{3, 2}));
+  EXPECT_EQ(sizes("static:2"), (std::vector<std::int64_t>{2, 2, 1}));
+}
+
 TEST(Predict, DispatchCostIsPaidOncePerChunk) {
   const auto w = harness::build_workload(synthetic_trace({std::vector<double>(6, 1.0)}, 0.0),
                                          "synthetic");
