@@ -63,6 +63,7 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
     double loop_seconds;
     double chunks_per_thread;
     int threads;
+    bool disturbed;
   };
   std::map<std::string, Figures> by_spec;
   const std::string prefix = "scheduling_overhead/";
@@ -74,7 +75,8 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
     const int threads = static_cast<int>(b.value("threads", 0.0));
     if (threads < 1) continue;
     by_spec[spec] = {1e-6 * b["overhead_loop_us_median"].get<double>(),
-                     b.value("chunks_per_loop", 0.0) / threads, threads};
+                     b.value("chunks_per_loop", 0.0) / threads, threads,
+                     b.value("disturbed", 0.0) != 0.0};
   }
   const auto reference = by_spec.find("static@blocks");
   if (reference == by_spec.end()) {
@@ -91,11 +93,19 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
       "{}: scheduling_overhead medians at {} threads (per loop {:.2f} us from static@blocks)",
       file.string(), model.measured_threads, 1e6 * model.loop_seconds);
   for (const auto& [spec, f] : by_spec) {
-    if (spec == "static@blocks" || f.chunks_per_thread <= 0.0) continue;
+    if (f.disturbed) model.disturbed.push_back(spec);
+    if (spec == "static@blocks" || f.chunks_per_thread <= 0.0 || f.disturbed) continue;
     model.dispatch_seconds[spec] =
         std::max(0.0, (f.loop_seconds - model.loop_seconds) / f.chunks_per_thread);
   }
   model.dispatch_seconds["static@blocks"] = 0.0;
+  if (!model.disturbed.empty()) {
+    std::string names;
+    for (const std::string& spec : model.disturbed) names += (names.empty() ? "" : ", ") + spec;
+    model.source += fmt::format("; {} of {} results disturbed by other work on the machine, not "
+                                "used for dispatch costs: {}",
+                                model.disturbed.size(), by_spec.size(), names);
+  }
   return model;
 }
 

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace clothbench::harness {
 
@@ -18,6 +19,9 @@ struct OverheadModel {
   int measured_threads = 0;         ///< team size of the micro-benchmark run
   double loop_seconds = 0.0;        ///< per loop: static@blocks' overhead (fork/join, barrier)
   std::map<std::string, double> dispatch_seconds;  ///< per chunk, by canonical spec
+  /// Results the micro-benchmark marked disturbed (other work took the cores): not used for
+  /// dispatch costs (static@blocks is used anyway, and listed, when it is one of them).
+  std::vector<std::string> disturbed;
 
   /// Dispatch cost of one chunk of `canonical`: its own figure, else that of the same kind
   /// with another chunk size (e.g. dynamic:3 from dynamic:1), else 0.
@@ -29,7 +33,8 @@ struct OverheadModel {
 
 /// Reads the Google Benchmark JSON of the scheduling_overhead benchmarks. Per loop: the
 /// median per-loop overhead of static@blocks (one chunk per thread). Per chunk of a spec S:
-/// (its per-loop overhead - static's) / (its chunks per loop / P), at least 0. Throws
+/// (its per-loop overhead - static's) / (its chunks per loop / P), at least 0; results marked
+/// disturbed are left out (and listed in the source text) except static@blocks. Throws
 /// std::invalid_argument naming the file when it cannot be read or holds no static@blocks
 /// result.
 OverheadModel read_overhead_model(const std::filesystem::path& file);

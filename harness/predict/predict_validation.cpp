@@ -11,6 +11,7 @@
 
 #include "harness/predict/prediction.hpp"
 #include "harness/predict/trace_workload.hpp"
+#include "harness/report/sweep_table.hpp"
 #include "harness/trace/trace_file.hpp"
 
 namespace clothbench::harness {
@@ -83,6 +84,7 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
     out.scheduler = row.value("scheduler_canonical", row.value("scheduler", std::string()));
     out.threads = row.value("threads", 1);
     out.measured_time = t["median"].get<double>();
+    out.disturbed = row_disturbed(row);
     if (row.contains("accounting") && row["accounting"].is_object() &&
         row["accounting"]["imbalance_percent"].is_number()) {
       out.measured_imbalance_percent = row["accounting"]["imbalance_percent"].get<double>();
@@ -114,16 +116,18 @@ std::string format_validation_markdown(const Validation& v) {
   out << fmt::format("Sweep load average at its start: {}. Overheads: {}.\n\n",
                      v.machine_load.empty() ? "not recorded" : v.machine_load, v.overheads.source);
   out << "| Scheduler | Threads | Predicted from | Predicted time [s] | Measured time [s] | "
-         "Error [%] | Predicted imbalance [%] | Measured imbalance [%] |\n";
-  out << "|:--|--:|:--|--:|--:|--:|--:|--:|\n";
+         "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing |\n";
+  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|\n";
   double sum = 0.0, worst = 0.0;
   for (const ValidationRow& r : v.rows) {
-    out << fmt::format("| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} |\n", r.scheduler,
+    out << fmt::format("| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} |\n",
+                       r.scheduler,
                        r.threads, r.source, r.predicted_time, r.measured_time, r.error_percent,
                        r.predicted_imbalance_percent,
                        r.measured_imbalance_percent
                            ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
-                           : std::string("-"));
+                           : std::string("-"),
+                       r.disturbed ? "DISTURBED" : "clean");
     sum += std::abs(r.error_percent);
     worst = std::max(worst, std::abs(r.error_percent));
   }
@@ -146,6 +150,7 @@ nlohmann::json validation_json(const Validation& v) {
          {"measured_time_seconds", r.measured_time},
          {"error_percent", r.error_percent},
          {"predicted_imbalance_percent", r.predicted_imbalance_percent},
+         {"measured_disturbed", r.disturbed},
          {"measured_imbalance_percent", r.measured_imbalance_percent
                                             ? nlohmann::json(*r.measured_imbalance_percent)
                                             : nlohmann::json()}});

@@ -23,6 +23,7 @@ struct ValidationRow {
   double error_percent = 0.0;  ///< 100 (predicted - measured) / measured
   double predicted_imbalance_percent = 0.0;
   std::optional<double> measured_imbalance_percent;  ///< none when the sweep was not instrumented
+  bool disturbed = false;  ///< the sweep labelled the row DISTURBED (other work took the cores)
 };
 
 /// The whole validation.

@@ -214,15 +214,16 @@ PlotOutcome write_prediction_outputs(const Prediction& p, const std::filesystem:
   std::ostringstream gp;
   gp << png_terminal(1400, 580) << "set output 'fig12.png'\n";
   gp << fmt::format("set multiplot layout 1,2 title {}\n",
-                    gnuplot_quote(fmt::format("Predicted from {} ({} at {} threads)",
+                    gnuplot_quote(fmt::format("Predicted from {} ({} at {} thread{})",
                                               p.trace_file, p.workload->scheduler,
-                                              p.workload->threads)));
+                                              p.workload->threads,
+                                              p.workload->threads == 1 ? "" : "s")));
   gp << fmt::format("set grid\nset xlabel 'threads'\nset logscale x 2\nset xrange [0.8:{}]\n",
                     max_threads * 1.25);
   if (p.workload->machine_cores > 0 && max_threads > p.workload->machine_cores) {
     gp << fmt::format(
         "set arrow 1 from {0}, graph 0 to {0}, graph 1 nohead dt 3 lc 'gray40'\n"
-        "set label 1 'traced machine cores' at {0}, graph 0.95 right offset -0.5,0\n",
+        "set label 1 'traced machine cores' at {0}, graph 0.04 left offset 0.5,0\n",
         p.workload->machine_cores);
   }
   gp << "set key top right\nset title 'Predicted time vs threads'\nset ylabel 'time [s]'\n"

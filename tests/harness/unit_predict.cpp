@@ -191,14 +191,18 @@ TEST(Predict, OverheadsComeFromTheMicroBenchmarkJson) {
     {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
      "overhead_loop_us_median": 2.0, "chunks_per_loop": 2},
     {"name": "scheduling_overhead/dynamic:1@blocks/iterations:30/real_time", "threads": 2,
-     "overhead_loop_us_median": 12.0, "chunks_per_loop": 2048}]})";
+     "overhead_loop_us_median": 12.0, "chunks_per_loop": 2048},
+    {"name": "scheduling_overhead/fac2:1@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 30000.0, "chunks_per_loop": 22, "disturbed": 1}]})";
   const OverheadModel m = harness::read_overhead_model(file);
   EXPECT_NEAR(m.loop_seconds, 2e-6, 1e-15);
   EXPECT_EQ(m.measured_threads, 2);
   // (12 - 2) us over 1024 chunks per thread.
   EXPECT_NEAR(m.dispatch("dynamic:1@blocks"), 10e-6 / 1024, 1e-15);
   EXPECT_NEAR(m.dispatch("dynamic:2@blocks"), 10e-6 / 1024, 1e-15);
-  EXPECT_EQ(m.dispatch("fac2:1@blocks"), 0.0);
+  EXPECT_EQ(m.dispatch("fac2:1@blocks"), 0.0);  // its result was disturbed: not used
+  EXPECT_EQ(m.dispatch("tss:1@blocks"), 0.0);   // not measured
+  EXPECT_EQ(m.disturbed, std::vector<std::string>{"fac2:1@blocks"});
   std::ofstream(dir / "empty.json") << R"({"benchmarks": []})";
   EXPECT_THROW(harness::read_overhead_model(dir / "empty.json"), std::invalid_argument);
   EXPECT_THROW(harness::read_overhead_model(dir / "missing.json"), std::invalid_argument);
