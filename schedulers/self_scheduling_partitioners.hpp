@@ -103,9 +103,8 @@ struct TrapezoidChunks {
 /// gss:k without threads: the size of the next chunk when `remaining` iterations are left,
 /// max(minimum, ceil(remaining / P)) (before clipping to what is left). Shared with the
 /// schedule predictor.
-[[nodiscard]] inline std::int64_t guided_self_scheduling_size(std::int64_t remaining,
-                                                             int team_size,
-                                                             std::int64_t minimum) {
+[[nodiscard]] inline std::int64_t guided_self_scheduling_size(std::int64_t remaining, int team_size,
+                                                              std::int64_t minimum) {
   return std::max(minimum, (remaining + team_size - 1) / team_size);
 }
 

@@ -102,9 +102,10 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   if (!model.disturbed.empty()) {
     std::string names;
     for (const std::string& spec : model.disturbed) names += (names.empty() ? "" : ", ") + spec;
-    model.source += fmt::format("; {} of {} results disturbed by other work on the machine, not "
-                                "used for dispatch costs: {}",
-                                model.disturbed.size(), by_spec.size(), names);
+    model.source += fmt::format(
+        "; {} of {} results disturbed by other work on the machine, not "
+        "used for dispatch costs: {}",
+        model.disturbed.size(), by_spec.size(), names);
   }
   return model;
 }

@@ -16,8 +16,8 @@ struct OverheadModel {
   /// Where the figures come from, for the output: the file, or why they are zero.
   std::string source = "none: overheads assumed zero (no --overheads FILE; the trace stores none)";
   bool measured = false;
-  int measured_threads = 0;         ///< team size of the micro-benchmark run
-  double loop_seconds = 0.0;        ///< per loop: static@blocks' overhead (fork/join, barrier)
+  int measured_threads = 0;   ///< team size of the micro-benchmark run
+  double loop_seconds = 0.0;  ///< per loop: static@blocks' overhead (fork/join, barrier)
   std::map<std::string, double> dispatch_seconds;  ///< per chunk, by canonical spec
   /// Results the micro-benchmark marked disturbed (other work took the cores): not used for
   /// dispatch costs (static@blocks is used anyway, and listed, when it is one of them).

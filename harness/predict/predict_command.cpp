@@ -68,9 +68,8 @@ int PredictCommand::run() {
     threads = parse_thread_list(threads_, "--threads");
     for (int t : threads) {
       if (t > kMostThreads) {
-        throw std::invalid_argument(
-            fmt::format("--threads: {} is more than the {} the predictor simulates", t,
-                        kMostThreads));
+        throw std::invalid_argument(fmt::format(
+            "--threads: {} is more than the {} the predictor simulates", t, kMostThreads));
       }
     }
     schedulers = split_list(schedulers_, "--schedulers");

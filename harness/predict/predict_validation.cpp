@@ -4,7 +4,7 @@
 #include <fmt/core.h>
 
 #include <cmath>
-#include <map>
+#include <exception>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -61,7 +61,7 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
         }
       }
     }
-  } catch (const std::runtime_error& error) {
+  } catch (const std::exception& error) {  // unreadable file, bad header, inconsistent records
     throw std::invalid_argument(error.what());
   }
   if (sources.empty()) {
@@ -120,14 +120,12 @@ std::string format_validation_markdown(const Validation& v) {
   out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|\n";
   double sum = 0.0, worst = 0.0;
   for (const ValidationRow& r : v.rows) {
-    out << fmt::format("| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} |\n",
-                       r.scheduler,
-                       r.threads, r.source, r.predicted_time, r.measured_time, r.error_percent,
-                       r.predicted_imbalance_percent,
-                       r.measured_imbalance_percent
-                           ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
-                           : std::string("-"),
-                       r.disturbed ? "DISTURBED" : "clean");
+    out << fmt::format(
+        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} |\n", r.scheduler, r.threads,
+        r.source, r.predicted_time, r.measured_time, r.error_percent, r.predicted_imbalance_percent,
+        r.measured_imbalance_percent ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
+                                     : std::string("-"),
+        r.disturbed ? "DISTURBED" : "clean");
     sum += std::abs(r.error_percent);
     worst = std::max(worst, std::abs(r.error_percent));
   }
@@ -142,18 +140,17 @@ std::string format_validation_markdown(const Validation& v) {
 nlohmann::json validation_json(const Validation& v) {
   nlohmann::json rows = nlohmann::json::array();
   for (const ValidationRow& r : v.rows) {
-    rows.push_back(
-        {{"scheduler", r.scheduler},
-         {"threads", r.threads},
-         {"predicted_from", r.source},
-         {"predicted_time_seconds", r.predicted_time},
-         {"measured_time_seconds", r.measured_time},
-         {"error_percent", r.error_percent},
-         {"predicted_imbalance_percent", r.predicted_imbalance_percent},
-         {"measured_disturbed", r.disturbed},
-         {"measured_imbalance_percent", r.measured_imbalance_percent
-                                            ? nlohmann::json(*r.measured_imbalance_percent)
-                                            : nlohmann::json()}});
+    rows.push_back({{"scheduler", r.scheduler},
+                    {"threads", r.threads},
+                    {"predicted_from", r.source},
+                    {"predicted_time_seconds", r.predicted_time},
+                    {"measured_time_seconds", r.measured_time},
+                    {"error_percent", r.error_percent},
+                    {"predicted_imbalance_percent", r.predicted_imbalance_percent},
+                    {"measured_disturbed", r.disturbed},
+                    {"measured_imbalance_percent",
+                     r.measured_imbalance_percent ? nlohmann::json(*r.measured_imbalance_percent)
+                                                  : nlohmann::json()}});
   }
   return {{"schema", "clothbench-prediction-validation"},
           {"schema_version", 1},

@@ -17,7 +17,7 @@ namespace clothbench::harness {
 struct ValidationRow {
   std::string scheduler;  ///< canonical spec
   int threads = 1;
-  std::string source;     ///< the trace it was predicted from (file name)
+  std::string source;  ///< the trace it was predicted from (file name)
   double predicted_time = 0.0;
   double measured_time = 0.0;
   double error_percent = 0.0;  ///< 100 (predicted - measured) / measured

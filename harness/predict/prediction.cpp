@@ -130,11 +130,11 @@ std::string format_prediction_markdown(const Prediction& p) {
              "Imbalance [%] | Time [s] | Speed-up | Efficiency | Chunks |\n";
       out << "|--:|:--|--:|--:|--:|--:|--:|--:|--:|--:|\n";
     }
-    out << fmt::format("| {} | {} | {:.4f} | {:.4f} | {:.4f} | {:.1f} | {:.4f} | {:.2f} | {:.2f} "
-                       "| {} |\n",
-                       row.threads, basis(row), row.sequential_overhead, row.parallel_overhead,
-                       row.load_imbalance, row.imbalance_percent, row.time, row.speedup,
-                       row.efficiency, row.chunks);
+    out << fmt::format(
+        "| {} | {} | {:.4f} | {:.4f} | {:.4f} | {:.1f} | {:.4f} | {:.2f} | {:.2f} "
+        "| {} |\n",
+        row.threads, basis(row), row.sequential_overhead, row.parallel_overhead, row.load_imbalance,
+        row.imbalance_percent, row.time, row.speedup, row.efficiency, row.chunks);
   }
   out << "\nEvery row is a prediction (a replay of the trace's per-iteration work through the "
          "scheduler's assignment on a virtual clock), never a measurement. Columns as in the "
@@ -214,9 +214,8 @@ PlotOutcome write_prediction_outputs(const Prediction& p, const std::filesystem:
   std::ostringstream gp;
   gp << png_terminal(1400, 580) << "set output 'fig12.png'\n";
   gp << fmt::format("set multiplot layout 1,2 title {}\n",
-                    gnuplot_quote(fmt::format("Predicted from {} ({} at {} thread{})",
-                                              p.trace_file, p.workload->scheduler,
-                                              p.workload->threads,
+                    gnuplot_quote(fmt::format("Predicted from {} ({} at {} thread{})", p.trace_file,
+                                              p.workload->scheduler, p.workload->threads,
                                               p.workload->threads == 1 ? "" : "s")));
   gp << fmt::format("set grid\nset xlabel 'threads'\nset logscale x 2\nset xrange [0.8:{}]\n",
                     max_threads * 1.25);
@@ -240,9 +239,10 @@ PlotOutcome write_prediction_outputs(const Prediction& p, const std::filesystem:
                       gnuplot_quote(fmt::format("Amdahl limit 1/s = {:.0f}", *p.amdahl_limit)));
   }
   for (std::size_t i = 0; i < names.size(); ++i) {
-    gp << fmt::format(", \\\n     'fig12.dat' index {} using 1:3 with linespoints lt {} lw 2 "
-                      "title {}",
-                      i, i + 1, gnuplot_quote(names[i]));
+    gp << fmt::format(
+        ", \\\n     'fig12.dat' index {} using 1:3 with linespoints lt {} lw 2 "
+        "title {}",
+        i, i + 1, gnuplot_quote(names[i]));
   }
   gp << "\nunset multiplot\n";
   run_gnuplot(dir, "fig12", gp.str(), outcome);

@@ -57,7 +57,7 @@ struct Prediction {
   std::string trace_file;
   const TraceWorkload* workload = nullptr;  ///< not owned
   OverheadModel overheads;
-  double sequential_share = 0.0;  ///< s = sequential / (sequential + busy) of the trace
+  double sequential_share = 0.0;       ///< s = sequential / (sequential + busy) of the trace
   std::optional<double> amdahl_limit;  ///< 1 / s (none when s = 0)
   std::vector<PredictedRow> rows;
   std::vector<std::string> notes;

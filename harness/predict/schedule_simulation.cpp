@@ -29,8 +29,7 @@ class ThreadClocks {
   void put(double clock, int thread) { queue_.emplace(clock, thread); }
 
  private:
-  std::priority_queue<std::pair<double, int>, std::vector<std::pair<double, int>>,
-                      std::greater<>>
+  std::priority_queue<std::pair<double, int>, std::vector<std::pair<double, int>>, std::greater<>>
       queue_;
 };
 
@@ -41,11 +40,12 @@ ScheduleModel ScheduleModel::parse(const std::string& text, OmpRuntimeModel runt
   model.spec = schedulers::parse_scheduler_spec(text);
   model.runtime = runtime;
   const std::string& k = model.spec.kind;
-  if (k != "static" && k != "dynamic" && k != "guided" && k != "fac2" && k != "tss" &&
-      k != "gss" && k != "active-lists") {
+  if (k != "static" && k != "dynamic" && k != "guided" && k != "fac2" && k != "tss" && k != "gss" &&
+      k != "active-lists") {
     throw std::invalid_argument(
-        text + ": the predictor replays static, static:k, dynamic:k, guided:k, fac2:k, tss:k, "
-               "gss:k and active-lists (not runtime or taskloop)");
+        text +
+        ": the predictor replays static, static:k, dynamic:k, guided:k, fac2:k, tss:k, "
+        "gss:k and active-lists (not runtime or taskloop)");
   }
   return model;
 }

@@ -21,8 +21,8 @@ void IterationCosts::add(std::int64_t iterations, double seconds) {
 double IterationCosts::prefix(std::int64_t i) const {
   if (i <= 0 || start_.empty()) return 0.0;
   // The segment holding i: the last start <= i.
-  const auto s = static_cast<std::size_t>(
-      std::upper_bound(start_.begin(), start_.end(), i) - start_.begin() - 1);
+  const auto s = static_cast<std::size_t>(std::upper_bound(start_.begin(), start_.end(), i) -
+                                          start_.begin() - 1);
   if (s + 1 >= start_.size()) return cumulative_.back();
   if (start_[s] == i) return cumulative_[s];
   const double segment = cumulative_[s + 1] - cumulative_[s];

@@ -41,8 +41,8 @@ class IterationCosts {
 
 /// One parallel loop instance of the trace.
 struct TracedLoop {
-  std::int32_t site = 0;      ///< index into the header's sites
-  int kind = -1;              ///< element kind (0-3), -1 for index loops
+  std::int32_t site = 0;  ///< index into the header's sites
+  int kind = -1;          ///< element kind (0-3), -1 for index loops
   std::int32_t step = 0;
   IterationCosts costs;       ///< over the trace's own iteration space
   IterationCosts active;      ///< over the Active-Lists' space (from a trace over blocks)

@@ -109,8 +109,8 @@ TEST_P(PredictAssignment, ReplayHandsOutTheRecordedChunks) {
   const Case& param = GetParam();
   const harness::TraceDocument trace = traced_run(param.scheduler, param.threads);
   const harness::TraceWorkload w = harness::build_workload(trace, param.scheduler);
-  const auto model = harness::ScheduleModel::parse(
-      param.scheduler, harness::runtime_model(w.openmp_runtime));
+  const auto model =
+      harness::ScheduleModel::parse(param.scheduler, harness::runtime_model(w.openmp_runtime));
   const bool fixed = model.fixed_assignment();
   std::vector<Chunk> recorded, predicted;
   for (const auto& c : trace.chunks) {
@@ -184,12 +184,14 @@ TEST(PredictCommand, PrintsTable2AndLabelsRowsBeyondTheCores) {
 TEST(PredictCommand, BadInputNamesTheFlagOrFileWithExitCode2) {
   const std::string trace = clothbench_test::quote(recorded_trace().string());
   const fs::path dir = recorded_trace().parent_path();
-  std::ofstream(dir / "garbled.cbtrace") << "clothbench-trace 1\n{\"loop_count\": 5, \"chunk_count\": 1}\n";
+  std::ofstream(dir / "garbled.cbtrace")
+      << "clothbench-trace 1\n{\"loop_count\": 5, \"chunk_count\": 1}\n";
   std::ofstream(dir / "text.cbtrace") << "hello\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"predict " + clothbench_test::quote((dir / "missing.cbtrace").string()), "missing.cbtrace"},
       {"predict " + clothbench_test::quote((dir / "garbled.cbtrace").string()), "garbled.cbtrace"},
-      {"predict " + clothbench_test::quote((dir / "text.cbtrace").string()), "not a clothbench trace"},
+      {"predict " + clothbench_test::quote((dir / "text.cbtrace").string()),
+       "not a clothbench trace"},
       {"predict " + trace + " --threads 0", "--threads"},
       {"predict " + trace + " --threads 1,a", "--threads"},
       {"predict " + trace + " --schedulers static,no-such", "--schedulers"},
@@ -216,7 +218,8 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
       clothbench_test::quote(std::string(CLOTHBENCH_SOURCE_DIR) +
                              "/tests/data/scenes/sweep-tiny.toml") +
       " --schedulers static,dynamic:1,active-lists --threads 1,2 --repeat 1 --retries 0 --steps 2 "
-      "--no-plots --quiet --out " + clothbench_test::quote((dir / "out").string()) + " --trace " +
+      "--no-plots --quiet --out " +
+      clothbench_test::quote((dir / "out").string()) + " --trace " +
       clothbench_test::quote((dir / "traces").string()));
   ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
   const auto out = clothbench_test::run(
@@ -224,7 +227,8 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
       " --trace-dir " + clothbench_test::quote((dir / "traces").string()));
   ASSERT_EQ(out.exit_code, 0) << out.output;
   EXPECT_THAT(out.output, HasSubstr("| static@blocks | 2 | dynamic_1_blocks-1t.cbtrace |"));
-  EXPECT_THAT(out.output, HasSubstr("| active-lists@active | 2 | active-lists_active-1t.cbtrace |"));
+  EXPECT_THAT(out.output,
+              HasSubstr("| active-lists@active | 2 | active-lists_active-1t.cbtrace |"));
   EXPECT_THAT(out.output, HasSubstr("6 rows: mean |error|"));
 }
 

@@ -47,11 +47,12 @@ harness::TraceDocument synthetic_trace(const std::vector<std::vector<double>>& l
     t.loops.push_back({static_cast<std::uint32_t>(i), 1, 0, 0, n, entry, clock});
     span_ms += 1e-6 * static_cast<double>(clock - entry);
   }
-  t.header = {{"scheduler", "dynamic:1@blocks"},
-              {"threads", 1},
-              {"sites", {{{"id", 0}, {"name", "evaluate:1/edges"}, {"kind", "edges"}}}},
-              {"cost", {{"run_seconds", (span_ms + sequential_ms) * kMs}}},
-              {"machine", {{"cpu", {{"cores", 2}}}, {"openmp", {{"runtime", {{"name", "libgomp"}}}}}}}};
+  t.header = {
+      {"scheduler", "dynamic:1@blocks"},
+      {"threads", 1},
+      {"sites", {{{"id", 0}, {"name", "evaluate:1/edges"}, {"kind", "edges"}}}},
+      {"cost", {{"run_seconds", (span_ms + sequential_ms) * kMs}}},
+      {"machine", {{"cpu", {{"cores", 2}}}, {"openmp", {{"runtime", {{"name", "libgomp"}}}}}}}};
   return t;
 }
 
@@ -104,8 +105,8 @@ TEST(Predict, OneHeavyIterationGivesTheImbalanceWorkedOutByHand) {
 TEST(Predict, GuidedChunksFollowLibgompsRule) {
   // libgomp: chunk = max(k, ceil(remaining / P)). 5 iterations at 2 threads: 3, 1, 1; at
   // k = 2: 3, 2.
-  const auto w = harness::build_workload(synthetic_trace({std::vector<double>(5, 1.0)}, 0.0),
-                                         "synthetic");
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(5, 1.0)}, 0.0), "synthetic");
   auto sizes = [&](const std::string& spec) {
     std::vector<std::int64_t> out;
     const auto s = harness::simulate_loop(ScheduleModel::parse(spec, OmpRuntimeModel::libgomp),
@@ -119,8 +120,8 @@ TEST(Predict, GuidedChunksFollowLibgompsRule) {
 }
 
 TEST(Predict, DispatchCostIsPaidOncePerChunk) {
-  const auto w = harness::build_workload(synthetic_trace({std::vector<double>(6, 1.0)}, 0.0),
-                                         "synthetic");
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(6, 1.0)}, 0.0), "synthetic");
   OverheadModel overheads;
   overheads.measured = true;
   overheads.dispatch_seconds["dynamic:1@blocks"] = 10e-6;
@@ -160,8 +161,8 @@ TEST(Predict, BlocksBecomeListEntriesByTheirElements) {
 }
 
 TEST(Predict, AmdahlLimitIsOneOverTheSequentialShare) {
-  const auto w = harness::build_workload(synthetic_trace({std::vector<double>(4, 2.5)}, 10.0),
-                                         "synthetic");
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(4, 2.5)}, 10.0), "synthetic");
   const auto p = harness::predict(w, "synthetic", {"static"}, {2, 4}, {});
   ASSERT_TRUE(p.amdahl_limit.has_value());
   EXPECT_NEAR(*p.amdahl_limit, 2.0, 1e-12);  // s = 10 / (10 + 10)
@@ -173,8 +174,7 @@ TEST(Predict, AmdahlLimitIsOneOverTheSequentialShare) {
 
 TEST(Predict, RefusesWhatItCannotReplay) {
   EXPECT_THROW(ScheduleModel::parse("runtime", OmpRuntimeModel::libgomp), std::invalid_argument);
-  EXPECT_THROW(ScheduleModel::parse("taskloop:2", OmpRuntimeModel::libgomp),
-               std::invalid_argument);
+  EXPECT_THROW(ScheduleModel::parse("taskloop:2", OmpRuntimeModel::libgomp), std::invalid_argument);
   EXPECT_THROW(ScheduleModel::parse("no-such-scheduler", OmpRuntimeModel::libgomp),
                std::invalid_argument);
   // A chunk that leaves a gap in its loop.
