@@ -64,8 +64,8 @@ Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
   const OmpRuntimeModel runtime = runtime_model(workload.openmp_runtime);
   if (runtime == OmpRuntimeModel::libomp) {
     p.notes.push_back(
-        "the trace ran on libomp: static is modelled as its greedy ceil(n/P) shares; guided:k "
-        "as libgomp's max(k, ceil(R/P)), which libomp's iterative guided only approximates");
+        "the trace ran on libomp: guided:k is modelled as libgomp's max(k, ceil(R/P)), which "
+        "libomp's iterative guided only approximates");
   }
   if (workload.run_seconds <= 0.0) {
     p.notes.push_back("the trace records no run time: sequential time taken as 0");

@@ -73,20 +73,11 @@ LoopSimulation simulate_loop(const ScheduleModel& model, const IterationCosts& c
   const std::int64_t k = std::max<std::int64_t>(model.spec.chunk, 1);
 
   if ((kind == "static" && model.spec.chunk == 0) || kind == "active-lists") {
-    // One contiguous share per thread, decided up front.
-    const bool greedy = kind == "static" && model.runtime == OmpRuntimeModel::libomp;
-    const std::int64_t block = (n + threads - 1) / threads;
+    // One contiguous share per thread, decided up front: the first n % P threads get one
+    // iteration more (libgomp's static, and libomp 14's, as the recorded traces show).
     for (int t = 0; t < threads; ++t) {
-      std::int64_t begin = 0, end = 0;
-      if (greedy) {
-        begin = std::min(n, t * block);
-        end = std::min(n, begin + block);
-      } else {
-        const auto share = schedulers::contiguous_share(n, t, threads);
-        begin = share.begin;
-        end = share.end;
-      }
-      if (end > begin) run(t, begin, end);
+      const auto share = schedulers::contiguous_share(n, t, threads);
+      if (share.end > share.begin) run(t, share.begin, share.end);
     }
   } else if (kind == "static") {
     for (std::int64_t j = 0; j * k < n; ++j) {

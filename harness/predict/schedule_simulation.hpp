@@ -1,10 +1,10 @@
 // How a scheduler hands the iterations of one loop to P threads, replayed on a virtual clock
 // (issue 17, "The predictor"). Our own partitioners (fac2, tss, gss, active-lists) use the
 // chunk rules of schedulers/ themselves; the OpenMP clauses follow the runtime's documented
-// algorithm: static = contiguous shares (libgomp: the first n % P threads one more; libomp:
-// ceil(n / P) each, its default "greedy" static), static,k = chunk j to thread j % P,
-// dynamic,k = the next free thread takes the next k, guided,k = max(k, ceil(R / P)) (libgomp's
-// gomp_iter_guided_next; libomp's guided is modelled the same way and says so).
+// algorithm: static = contiguous shares, the first n % P threads one more (libgomp; libomp
+// 14 splits the same way), static,k = chunk j to thread j % P, dynamic,k = the next free
+// thread takes the next k, guided,k = max(k, ceil(R / P)) (libgomp's gomp_iter_guided_next;
+// libomp's guided is modelled the same way and says so).
 // A thread that takes a chunk first pays the dispatch cost, then the chunk's work; a free
 // thread is the one whose clock is earliest (ties: the lowest thread number).
 #pragma once
