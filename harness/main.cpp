@@ -6,6 +6,7 @@
 //   clothbench stress [options]      the stress matrix, PASSED/FAILED per cell (harness/stress)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 //   clothbench compare A.json B.json two sweeps row by row, with a U test (harness/compare)
+//   clothbench predict TRACE         Table 2 / Fig. 12 predicted from a trace (harness/predict)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
 // (its finished rows are kept; it prints the command that resumes it). `compare` exits 1
@@ -26,6 +27,7 @@
 
 #include "harness/compare/compare_command.hpp"
 #include "harness/machine/machine_context.hpp"
+#include "harness/predict/predict_command.hpp"
 #include "harness/report/sweep_table.hpp"
 #include "harness/experiment/experiment.hpp"
 #include "harness/run/run_scene.hpp"
@@ -249,6 +251,7 @@ int main(int argc, char** argv) {
 
   clothbench::harness::StressCommand stress_command(app);
   clothbench::harness::CompareCommand compare_command(app);
+  clothbench::harness::PredictCommand predict_command(app);
 
   try {
     app.parse(argc, argv);
@@ -272,6 +275,7 @@ int main(int argc, char** argv) {
     if (*check_command) return check_scene(check_file);
     if (stress_command.selected()) return stress_command.run(argc, argv);
     if (compare_command.selected()) return compare_command.run();
+    if (predict_command.selected()) return predict_command.run();
     if (*sweep_command) {
       // The OpenMP runtime reads OMP_WAIT_POLICY when it starts (libgomp: when the program
       // is loaded), so a policy that differs from the environment's restarts the command with

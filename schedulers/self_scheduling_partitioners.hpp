@@ -49,6 +49,65 @@ class SelfSchedulingCounters {
   alignas(64) std::atomic<int> finished_threads_{0};
 };
 
+/// fac2:k without threads: bounds [begin, end) of chunk `chunk` (0-based, in grab order) of
+/// [0, n) for a team of `team_size` with smallest chunk `minimum` (>= 1); false once [0, n) is
+/// exhausted. Batches of team_size chunks of max(minimum, ceil(R / (2P))), R = iterations left
+/// when the batch starts. The partitioner and the schedule predictor (harness/predict) share it.
+[[nodiscard]] inline bool factoring2_chunk(std::int64_t chunk, std::int64_t n, int team_size,
+                                           std::int64_t minimum, std::int64_t& begin,
+                                           std::int64_t& end) {
+  std::int64_t batch_start = 0;
+  while (batch_start < n) {
+    const std::int64_t remaining = n - batch_start;
+    const std::int64_t size = std::max(minimum, (remaining + 2 * team_size - 1) / (2 * team_size));
+    if (chunk < team_size) {
+      begin = batch_start + chunk * size;
+      end = std::min(n, begin + size);
+      return begin < n;
+    }
+    chunk -= team_size;
+    batch_start += team_size * size;
+  }
+  return false;
+}
+
+/// tss:k without threads: the chunk sizes of trapezoid self-scheduling over [0, n) for a team
+/// of `team_size`, last chunk `last` (>= 1). Tzen & Ni: f = n / (2P), l = k,
+/// N = ceil(2n / (f + l)) chunks, step d = (f - l) / (N - 1) rounded down (so the chunks never
+/// fall short of n; the tail is clipped). Shared with the schedule predictor.
+struct TrapezoidChunks {
+  std::int64_t first = 0;
+  std::int64_t last = 1;
+  std::int64_t step = 0;
+  std::int64_t linear_chunks = 0;  ///< chunks 0..linear_chunks-1 shrink by step; later: last
+
+  TrapezoidChunks(std::int64_t n, int team_size, std::int64_t last_chunk) : last(last_chunk) {
+    first = std::max(last, (n + 2 * team_size - 1) / (2 * team_size));
+    const std::int64_t chunks =
+        std::max<std::int64_t>(1, (2 * n + first + last - 1) / (first + last));
+    step = chunks > 1 ? (first - last) / (chunks - 1) : 0;
+    linear_chunks = step > 0 ? (first - last) / step + 1 : n + 1;
+  }
+  /// Bounds of chunk `chunk` (grab order) within [0, n); false once [0, n) is exhausted.
+  [[nodiscard]] bool bounds(std::int64_t chunk, std::int64_t n, std::int64_t& begin,
+                            std::int64_t& end) const {
+    const std::int64_t linear = std::min(chunk, linear_chunks);
+    begin = linear * first - step * (linear * (linear - 1) / 2) + (chunk - linear) * last;
+    if (begin >= n) return false;
+    const std::int64_t size = chunk < linear_chunks ? first - chunk * step : last;
+    end = std::min(n, begin + size);
+    return true;
+  }
+};
+
+/// gss:k without threads: the size of the next chunk when `remaining` iterations are left,
+/// max(minimum, ceil(remaining / P)) (before clipping to what is left). Shared with the
+/// schedule predictor.
+[[nodiscard]] inline std::int64_t guided_self_scheduling_size(std::int64_t remaining, int team_size,
+                                                              std::int64_t minimum) {
+  return std::max(minimum, (remaining + team_size - 1) / team_size);
+}
+
 /// Factoring with the fixed factor 2 (`fac2:k`); k = smallest chunk.
 class Factoring2Partitioner {
  public:
@@ -62,7 +121,7 @@ class Factoring2Partitioner {
     for (;;) {
       std::int64_t begin = 0;
       std::int64_t end = 0;
-      if (!chunk_bounds(counters_.take(1), n, team_size, begin, end)) break;
+      if (!factoring2_chunk(counters_.take(1), n, team_size, minimum_, begin, end)) break;
       body(begin, end);
     }
     counters_.finish(team_size);
@@ -71,25 +130,6 @@ class Factoring2Partitioner {
   [[nodiscard]] std::string name() const { return concat("fac2:", minimum_); }
 
  private:
-  // Bounds of chunk `chunk` (0-based, in grab order); false once [0, n) is exhausted.
-  bool chunk_bounds(std::int64_t chunk, std::int64_t n, int team_size, std::int64_t& begin,
-                    std::int64_t& end) const {
-    std::int64_t batch_start = 0;
-    while (batch_start < n) {
-      const std::int64_t remaining = n - batch_start;
-      const std::int64_t size =
-          std::max(minimum_, (remaining + 2 * team_size - 1) / (2 * team_size));
-      if (chunk < team_size) {
-        begin = batch_start + chunk * size;
-        end = std::min(n, begin + size);
-        return begin < n;
-      }
-      chunk -= team_size;
-      batch_start += team_size * size;
-    }
-    return false;
-  }
-
   std::int64_t minimum_;
   SelfSchedulingCounters counters_;
 };
@@ -104,22 +144,12 @@ class TrapezoidPartitioner {
   template <class Body>
   void loop(std::int64_t n, Body&& body) {
     const int team_size = omp_get_num_threads();
-    // Tzen & Ni: f = n / (2P), l = k, N = ceil(2n / (f + l)) chunks, step d = (f - l) / (N - 1)
-    // rounded down (so the chunks never fall short of n; the tail is clipped).
-    const std::int64_t first = std::max(last_, (n + 2 * team_size - 1) / (2 * team_size));
-    const std::int64_t chunks =
-        std::max<std::int64_t>(1, (2 * n + first + last_ - 1) / (first + last_));
-    const std::int64_t step = chunks > 1 ? (first - last_) / (chunks - 1) : 0;
-    // Chunks 0..linear_chunks-1 shrink by `step`; later ones have size `last_`.
-    const std::int64_t linear_chunks = step > 0 ? (first - last_) / step + 1 : n + 1;
+    const TrapezoidChunks plan(n, team_size, last_);
     for (;;) {
-      const std::int64_t chunk = counters_.take(1);
-      const std::int64_t linear = std::min(chunk, linear_chunks);
-      const std::int64_t begin =
-          linear * first - step * (linear * (linear - 1) / 2) + (chunk - linear) * last_;
-      if (begin >= n) break;
-      const std::int64_t size = chunk < linear_chunks ? first - chunk * step : last_;
-      body(begin, std::min(n, begin + size));
+      std::int64_t begin = 0;
+      std::int64_t end = 0;
+      if (!plan.bounds(counters_.take(1), n, begin, end)) break;
+      body(begin, end);
     }
     counters_.finish(team_size);
 #pragma omp barrier
@@ -145,7 +175,7 @@ class GuidedSelfSchedulingPartitioner {
     std::atomic<std::int64_t>& next = counters_.next();
     std::int64_t begin = next.load(std::memory_order_relaxed);
     while (begin < n) {
-      const std::int64_t size = std::max(minimum_, (n - begin + team_size - 1) / team_size);
+      const std::int64_t size = guided_self_scheduling_size(n - begin, team_size, minimum_);
       const std::int64_t end = std::min(n, begin + size);
       if (next.compare_exchange_weak(begin, end, std::memory_order_relaxed)) {
         body(begin, end);

@@ -1,0 +1,164 @@
+// Predicted against measured sweep rows (see predict_validation.hpp).
+#include "harness/predict/predict_validation.hpp"
+
+#include <fmt/core.h>
+
+#include <cmath>
+#include <exception>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "harness/predict/prediction.hpp"
+#include "harness/predict/trace_workload.hpp"
+#include "harness/report/sweep_table.hpp"
+#include "harness/trace/trace_file.hpp"
+
+namespace clothbench::harness {
+
+namespace {
+
+struct Source {
+  std::filesystem::path file;
+  TraceWorkload workload;
+  std::size_t chunks = 0;
+};
+
+Source load_source(const std::filesystem::path& file) {
+  Source s;
+  s.file = file;
+  const TraceDocument document = read_trace(file);
+  s.chunks = document.chunks.size();
+  s.workload = build_workload(document, file.string());
+  return s;
+}
+
+}  // namespace
+
+Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
+                               const std::filesystem::path& trace_dir,
+                               const std::optional<std::filesystem::path>& from,
+                               const OverheadModel& overheads) {
+  Validation v;
+  v.sweep_file = sweep_file;
+  v.overheads = overheads;
+  if (sweep.contains("machine") && sweep["machine"].contains("load_average") &&
+      !sweep["machine"]["load_average"].empty()) {
+    v.machine_load = fmt::format("{:.2f}", sweep["machine"]["load_average"][0].get<double>());
+  }
+  std::vector<std::unique_ptr<Source>> sources;
+  try {
+    if (from) {
+      sources.push_back(std::make_unique<Source>(load_source(*from)));
+    } else {
+      if (!std::filesystem::is_directory(trace_dir)) {
+        throw std::invalid_argument(trace_dir.string() + ": not a directory");
+      }
+      for (const auto& entry : std::filesystem::directory_iterator(trace_dir)) {
+        const std::string name = entry.path().filename().string();
+        if (name.ends_with("-1t.cbtrace")) {
+          sources.push_back(std::make_unique<Source>(load_source(entry.path())));
+        }
+      }
+    }
+  } catch (const std::exception& error) {  // unreadable file, bad header, inconsistent records
+    throw std::invalid_argument(error.what());
+  }
+  if (sources.empty()) {
+    throw std::invalid_argument(
+        "--trace-dir: " + trace_dir.string() +
+        " holds no 1-thread trace (*-1t.cbtrace; write them with `sweep --trace DIR`)");
+  }
+  auto choose = [&](schedulers::IterationSpace space) -> const Source* {
+    const Source* best = nullptr;
+    for (const auto& s : sources) {
+      if (s->workload.space != space) continue;
+      if (best == nullptr || s->chunks > best->chunks) best = s.get();
+    }
+    return best;
+  };
+  for (const auto& row : sweep.at("rows")) {
+    const nlohmann::json& t = row["time_seconds"];
+    if (!t.is_object() || !t["median"].is_number()) continue;
+    ValidationRow out;
+    out.scheduler = row.value("scheduler_canonical", row.value("scheduler", std::string()));
+    out.threads = row.value("threads", 1);
+    out.measured_time = t["median"].get<double>();
+    out.disturbed = row_disturbed(row);
+    if (row.contains("accounting") && row["accounting"].is_object() &&
+        row["accounting"]["imbalance_percent"].is_number()) {
+      out.measured_imbalance_percent = row["accounting"]["imbalance_percent"].get<double>();
+    }
+    try {
+      const Source* source = nullptr;
+      const ScheduleModel probe = ScheduleModel::parse(out.scheduler, OmpRuntimeModel::libgomp);
+      source = choose(probe.spec.space);
+      if (source == nullptr) source = choose(schedulers::IterationSpace::blocks);
+      if (source == nullptr) source = sources.front().get();
+      const ScheduleModel model =
+          ScheduleModel::parse(out.scheduler, runtime_model(source->workload.openmp_runtime));
+      const PredictedRow p = predict_row(source->workload, model, out.threads, overheads);
+      out.source = source->file.filename().string();
+      out.predicted_time = p.time;
+      out.predicted_imbalance_percent = p.imbalance_percent;
+      out.error_percent = 100.0 * (p.time - out.measured_time) / out.measured_time;
+      v.rows.push_back(out);
+    } catch (const std::invalid_argument& error) {
+      v.skipped.push_back(fmt::format("{} x {}: {}", out.scheduler, out.threads, error.what()));
+    }
+  }
+  return v;
+}
+
+std::string format_validation_markdown(const Validation& v) {
+  std::ostringstream out;
+  out << fmt::format("# Predicted vs measured: {}\n\n", v.sweep_file);
+  out << fmt::format("Sweep load average at its start: {}. Overheads: {}.\n\n",
+                     v.machine_load.empty() ? "not recorded" : v.machine_load, v.overheads.source);
+  out << "| Scheduler | Threads | Predicted from | Predicted time [s] | Measured time [s] | "
+         "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing |\n";
+  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|\n";
+  double sum = 0.0, worst = 0.0;
+  for (const ValidationRow& r : v.rows) {
+    out << fmt::format(
+        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} |\n", r.scheduler, r.threads,
+        r.source, r.predicted_time, r.measured_time, r.error_percent, r.predicted_imbalance_percent,
+        r.measured_imbalance_percent ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
+                                     : std::string("-"),
+        r.disturbed ? "DISTURBED" : "clean");
+    sum += std::abs(r.error_percent);
+    worst = std::max(worst, std::abs(r.error_percent));
+  }
+  if (!v.rows.empty()) {
+    out << fmt::format("\n{} rows: mean |error| {:.1f} %, largest {:.1f} %.\n", v.rows.size(),
+                       sum / static_cast<double>(v.rows.size()), worst);
+  }
+  for (const std::string& s : v.skipped) out << "Not predicted: " << s << "\n";
+  return out.str();
+}
+
+nlohmann::json validation_json(const Validation& v) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const ValidationRow& r : v.rows) {
+    rows.push_back({{"scheduler", r.scheduler},
+                    {"threads", r.threads},
+                    {"predicted_from", r.source},
+                    {"predicted_time_seconds", r.predicted_time},
+                    {"measured_time_seconds", r.measured_time},
+                    {"error_percent", r.error_percent},
+                    {"predicted_imbalance_percent", r.predicted_imbalance_percent},
+                    {"measured_disturbed", r.disturbed},
+                    {"measured_imbalance_percent",
+                     r.measured_imbalance_percent ? nlohmann::json(*r.measured_imbalance_percent)
+                                                  : nlohmann::json()}});
+  }
+  return {{"schema", "clothbench-prediction-validation"},
+          {"schema_version", 1},
+          {"sweep", v.sweep_file},
+          {"machine_load", v.machine_load},
+          {"overheads", v.overheads.source},
+          {"rows", rows},
+          {"skipped", v.skipped}};
+}
+
+}  // namespace clothbench::harness

@@ -1,0 +1,52 @@
+// `clothbench predict --validate SWEEP.json --trace-dir DIR` (issue 17): every measured row of
+// a sweep predicted from a 1-thread trace of the same sweep (`sweep --trace DIR` writes
+// DIR/<scheduler>-<threads>t.cbtrace), beside its measured time and imbalance.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "harness/predict/overhead_model.hpp"
+
+namespace clothbench::harness {
+
+/// One sweep row, predicted and measured.
+struct ValidationRow {
+  std::string scheduler;  ///< canonical spec
+  int threads = 1;
+  std::string source;  ///< the trace it was predicted from (file name)
+  double predicted_time = 0.0;
+  double measured_time = 0.0;
+  double error_percent = 0.0;  ///< 100 (predicted - measured) / measured
+  double predicted_imbalance_percent = 0.0;
+  std::optional<double> measured_imbalance_percent;  ///< none when the sweep was not instrumented
+  bool disturbed = false;  ///< the sweep labelled the row DISTURBED (other work took the cores)
+};
+
+/// The whole validation.
+struct Validation {
+  std::string sweep_file;
+  std::string machine_load;  ///< the sweep's load average at its start, as recorded
+  std::vector<ValidationRow> rows;
+  std::vector<std::string> skipped;  ///< rows that could not be predicted, with the reason
+  OverheadModel overheads;
+};
+
+/// Predicts every row of `sweep` (a loaded sweep document) that has a measured time. The
+/// source trace of a row: `from` when given, else the 1-thread trace in `trace_dir` with the
+/// most chunks over the row's iteration space (the finest per-iteration costs), else one over
+/// blocks. Throws std::invalid_argument when `trace_dir` holds no readable 1-thread trace.
+Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
+                               const std::filesystem::path& trace_dir,
+                               const std::optional<std::filesystem::path>& from,
+                               const OverheadModel& overheads);
+
+/// Markdown table of the validation, with the mean and largest |error|.
+std::string format_validation_markdown(const Validation& validation);
+/// The same as JSON.
+nlohmann::json validation_json(const Validation& validation);
+
+}  // namespace clothbench::harness

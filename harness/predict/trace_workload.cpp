@@ -1,0 +1,120 @@
+// Rebuilding per-iteration costs and sequential time from a trace (see trace_workload.hpp).
+#include "harness/predict/trace_workload.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace clothbench::harness {
+
+void IterationCosts::add(std::int64_t iterations, double seconds) {
+  if (iterations <= 0) return;
+  if (start_.empty()) {
+    start_.push_back(0);
+    cumulative_.push_back(0.0);
+  }
+  start_.push_back(start_.back() + iterations);
+  cumulative_.push_back(cumulative_.back() + seconds);
+}
+
+double IterationCosts::prefix(std::int64_t i) const {
+  if (i <= 0 || start_.empty()) return 0.0;
+  // The segment holding i: the last start <= i.
+  const auto s = static_cast<std::size_t>(std::upper_bound(start_.begin(), start_.end(), i) -
+                                          start_.begin() - 1);
+  if (s + 1 >= start_.size()) return cumulative_.back();
+  if (start_[s] == i) return cumulative_[s];
+  const double segment = cumulative_[s + 1] - cumulative_[s];
+  const auto length = static_cast<double>(start_[s + 1] - start_[s]);
+  return cumulative_[s] + segment * static_cast<double>(i - start_[s]) / length;
+}
+
+double IterationCosts::range(std::int64_t begin, std::int64_t end) const {
+  return end > begin ? prefix(end) - prefix(begin) : 0.0;
+}
+
+TraceWorkload build_workload(const TraceDocument& trace, const std::string& name) {
+  const nlohmann::json& h = trace.header;
+  TraceWorkload w;
+  w.scheduler = h.value("scheduler", std::string("unknown"));
+  w.threads = h.value("threads", 1);
+  w.scene = h.value("scene", std::string());
+  w.space = w.scheduler.ends_with("@active") ? schedulers::IterationSpace::active
+                                             : schedulers::IterationSpace::blocks;
+  w.openmp_runtime = "unknown";
+  if (h.contains("machine") && h["machine"].is_object()) {
+    const nlohmann::json& m = h["machine"];
+    if (m.contains("openmp") && m["openmp"].contains("runtime")) {
+      w.openmp_runtime = m["openmp"]["runtime"].value("name", std::string("unknown"));
+    }
+    if (m.contains("cpu")) w.machine_cores = m["cpu"].value("cores", 0);
+  }
+  if (h.contains("cost") && h["cost"].is_object()) {
+    w.run_seconds = h["cost"].value("run_seconds", 0.0);
+  }
+  std::vector<int> site_kind;
+  if (h.contains("sites")) {
+    for (const auto& s : h["sites"]) {
+      const std::string kind = s.value("kind", std::string("index"));
+      int code = -1;
+      if (kind == "particles") code = 0;
+      if (kind == "edges") code = 1;
+      if (kind == "triples") code = 2;
+      if (kind == "ghosts") code = 3;
+      site_kind.push_back(code);
+    }
+  }
+
+  w.loops.resize(trace.loops.size());
+  std::int64_t busy_ns = 0;
+  std::size_t c = 0;
+  for (std::size_t i = 0; i < trace.loops.size(); ++i) {
+    const kernels::LoopRecord& loop = trace.loops[i];
+    if (loop.instance != i) {
+      throw std::invalid_argument(
+          fmt::format("{}: loop record {} holds instance {}", name, i, loop.instance));
+    }
+    TracedLoop& out = w.loops[i];
+    out.site = loop.site;
+    out.kind = loop.site >= 0 && static_cast<std::size_t>(loop.site) < site_kind.size()
+                   ? site_kind[static_cast<std::size_t>(loop.site)]
+                   : -1;
+    out.step = loop.step;
+    out.span_seconds = 1e-9 * static_cast<double>(loop.exit_ns - loop.entry_ns);
+    w.loop_span_seconds += out.span_seconds;
+    std::int64_t covered = 0;
+    for (; c < trace.chunks.size() && trace.chunks[c].instance == i; ++c) {
+      const kernels::ChunkRecord& chunk = trace.chunks[c];
+      if (chunk.begin != covered || chunk.end < chunk.begin || chunk.end > loop.n) {
+        throw std::invalid_argument(fmt::format(
+            "{}: loop instance {}: chunk [{}, {}) does not continue the ranges at {} of [0, {})",
+            name, i, chunk.begin, chunk.end, covered, loop.n));
+      }
+      const std::int64_t ns = chunk.end_ns - chunk.start_ns;
+      busy_ns += ns;
+      const double seconds = 1e-9 * static_cast<double>(ns);
+      out.costs.add(chunk.end - chunk.begin, seconds);
+      if (w.space == schedulers::IterationSpace::blocks && out.kind >= 0) {
+        out.active.add(chunk.elements, seconds);
+        if (chunk.elements == 0) w.dropped_for_active_seconds += seconds;
+      }
+      covered = chunk.end;
+    }
+    if (covered != loop.n) {
+      throw std::invalid_argument(fmt::format(
+          "{}: loop instance {}: its chunks cover [0, {}) of [0, {})", name, i, covered, loop.n));
+    }
+    if (w.space == schedulers::IterationSpace::active || out.kind < 0) out.active = out.costs;
+  }
+  if (c != trace.chunks.size()) {
+    throw std::invalid_argument(
+        fmt::format("{}: chunk {} names loop instance {}, which the trace does not hold", name, c,
+                    trace.chunks[c].instance));
+  }
+  w.busy_seconds = 1e-9 * static_cast<double>(busy_ns);
+  w.sequential_seconds = std::max(0.0, w.run_seconds - w.loop_span_seconds);
+  return w;
+}
+
+}  // namespace clothbench::harness

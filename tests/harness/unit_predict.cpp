@@ -1,0 +1,212 @@
+// The schedule predictor (harness/predict, issue 17) on synthetic traces with answers worked
+// out by hand: uniform work under static, one heavy iteration under static and dynamic:1,
+// dispatch costs per chunk, sequential time, the blocks-to-Active-Lists conversion, the
+// overheads file of the scheduling-overhead micro-benchmark, and specs it refuses.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "harness/predict/overhead_model.hpp"
+#include "harness/predict/prediction.hpp"
+#include "harness/predict/schedule_simulation.hpp"
+#include "harness/predict/trace_workload.hpp"
+#include "tests/harness/clothbench_process.hpp"
+
+namespace clothbench {
+namespace {
+
+using harness::OmpRuntimeModel;
+using harness::OverheadModel;
+using harness::ScheduleModel;
+
+constexpr double kMs = 1e-3;
+
+/// A 1-thread trace over blocks of one edge loop per entry of `loops`: each loop's iterations
+/// as one chunk each, with the given costs (ms) and element counts (1 each unless given), and
+/// `sequential_ms` outside the loops.
+harness::TraceDocument synthetic_trace(const std::vector<std::vector<double>>& loops,
+                                       double sequential_ms,
+                                       const std::vector<std::vector<int>>& elements = {}) {
+  harness::TraceDocument t;
+  std::int64_t clock = 0;
+  double span_ms = 0.0;
+  for (std::size_t i = 0; i < loops.size(); ++i) {
+    const auto n = static_cast<std::int64_t>(loops[i].size());
+    const std::int64_t entry = clock;
+    for (std::int64_t b = 0; b < n; ++b) {
+      const auto ns = static_cast<std::int64_t>(loops[i][static_cast<std::size_t>(b)] * 1e6);
+      const int e = elements.empty() ? 1 : elements[i][static_cast<std::size_t>(b)];
+      t.chunks.push_back({static_cast<std::uint32_t>(i), 0, static_cast<std::int32_t>(b),
+                          static_cast<std::int32_t>(b + 1), e, 0, clock, clock + ns});
+      clock += ns;
+    }
+    t.loops.push_back({static_cast<std::uint32_t>(i), 1, 0, 0, n, entry, clock});
+    span_ms += 1e-6 * static_cast<double>(clock - entry);
+  }
+  t.header = {
+      {"scheduler", "dynamic:1@blocks"},
+      {"threads", 1},
+      {"sites", {{{"id", 0}, {"name", "evaluate:1/edges"}, {"kind", "edges"}}}},
+      {"cost", {{"run_seconds", (span_ms + sequential_ms) * kMs}}},
+      {"machine", {{"cpu", {{"cores", 2}}}, {"openmp", {{"runtime", {{"name", "libgomp"}}}}}}}};
+  return t;
+}
+
+harness::PredictedRow row(const harness::TraceWorkload& w, const std::string& spec, int threads,
+                          const OverheadModel& overheads = {}) {
+  return harness::predict_row(w, ScheduleModel::parse(spec, OmpRuntimeModel::libgomp), threads,
+                              overheads);
+}
+
+TEST(Predict, UniformWorkUnderStaticTakesBusyOverP) {
+  const std::vector<double> uniform(12, 2.0);  // 12 iterations of 2 ms
+  const auto w = harness::build_workload(synthetic_trace({uniform, uniform}, 5.0), "synthetic");
+  EXPECT_NEAR(w.busy_seconds, 48 * kMs, 1e-12);
+  EXPECT_NEAR(w.sequential_seconds, 5 * kMs, 1e-12);
+  for (int p : {1, 2, 3, 4, 6, 12}) {
+    const auto r = row(w, "static", p);
+    EXPECT_NEAR(r.time, 5 * kMs + 48 * kMs / p, 1e-12) << p << " threads";
+    EXPECT_NEAR(r.load_imbalance, 0.0, 1e-12) << p << " threads";
+    EXPECT_NEAR(r.parallel_work, 48 * kMs / p, 1e-12) << p << " threads";
+  }
+  // 5 threads over 12 iterations: shares 3,3,2,2,2 -> the busiest works 6 ms per loop.
+  const auto five = row(w, "static", 5);
+  EXPECT_NEAR(five.time, 5 * kMs + 2 * 6 * kMs, 1e-12);
+  EXPECT_NEAR(five.load_imbalance, 2 * (6 - 24.0 / 5) * kMs, 1e-12);
+}
+
+TEST(Predict, OneHeavyIterationGivesTheImbalanceWorkedOutByHand) {
+  const auto w = harness::build_workload(synthetic_trace({{7, 1, 1, 1}}, 0.0), "synthetic");
+  // static at 2 threads: [0, 2) = 8 ms, [2, 4) = 2 ms; busiest 8, mean 5.
+  const auto s = row(w, "static", 2);
+  EXPECT_NEAR(s.time, 8 * kMs, 1e-12);
+  EXPECT_NEAR(s.load_imbalance, 3 * kMs, 1e-12);
+  EXPECT_NEAR(s.imbalance_percent, 60.0, 1e-9);
+  // dynamic:1: thread 0 takes the 7 ms iteration, thread 1 the three of 1 ms.
+  const auto d = row(w, "dynamic:1", 2);
+  EXPECT_NEAR(d.time, 7 * kMs, 1e-12);
+  EXPECT_NEAR(d.imbalance_percent, 40.0, 1e-9);
+  // guided:1 at 2 threads: chunks of ceil(4/2) = 2, then ceil(2/2) = 1, 1: [0,2) 8 ms on
+  // thread 0, [2,3) and [3,4) on thread 1.
+  const auto g = harness::simulate_loop(ScheduleModel::parse("guided:1", OmpRuntimeModel::libgomp),
+                                        w.loops[0].costs, 2, 0.0, true);
+  ASSERT_EQ(g.assignment.size(), 3u);
+  EXPECT_EQ(g.assignment[0].end, 2);
+  EXPECT_EQ(g.assignment[0].thread, 0);
+  EXPECT_EQ(g.assignment[1].thread, 1);
+  EXPECT_EQ(g.assignment[2].thread, 1);
+  EXPECT_NEAR(g.makespan, 8 * kMs, 1e-12);
+}
+
+TEST(Predict, GuidedChunksFollowLibgompsRule) {
+  // libgomp: chunk = max(k, ceil(remaining / P)). 5 iterations at 2 threads: 3, 1, 1; at
+  // k = 2: 3, 2.
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(5, 1.0)}, 0.0), "synthetic");
+  auto sizes = [&](const std::string& spec) {
+    std::vector<std::int64_t> out;
+    const auto s = harness::simulate_loop(ScheduleModel::parse(spec, OmpRuntimeModel::libgomp),
+                                          w.loops[0].costs, 2, 0.0, true);
+    for (const auto& c : s.assignment) out.push_back(c.end - c.begin);
+    return out;
+  };
+  EXPECT_EQ(sizes("guided:1"), (std::vector<std::int64_t>{3, 1, 1}));
+  EXPECT_EQ(sizes("guided:2"), (std::vector<std::int64_t>{3, 2}));
+  EXPECT_EQ(sizes("static:2"), (std::vector<std::int64_t>{2, 2, 1}));
+}
+
+TEST(Predict, DispatchCostIsPaidOncePerChunk) {
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(6, 1.0)}, 0.0), "synthetic");
+  OverheadModel overheads;
+  overheads.measured = true;
+  overheads.dispatch_seconds["dynamic:1@blocks"] = 10e-6;
+  overheads.loop_seconds = 3e-6;
+  const auto one = row(w, "dynamic:1", 1, overheads);
+  EXPECT_NEAR(one.time, 6 * kMs + 6 * 10e-6 + 3e-6, 1e-12);
+  EXPECT_EQ(one.chunks, 6);
+  const auto two = row(w, "dynamic:1", 2, overheads);
+  EXPECT_NEAR(two.time, 3 * kMs + 3 * 10e-6 + 3e-6, 1e-12);
+  EXPECT_NEAR(two.parallel_overhead, 3 * 10e-6 + 3e-6, 1e-12);
+  // dynamic:3 takes its dispatch figure from dynamic:1 (same kind): 2 chunks at 1 thread.
+  EXPECT_NEAR(row(w, "dynamic:3", 1, overheads).time, 6 * kMs + 2 * 10e-6 + 3e-6, 1e-12);
+}
+
+TEST(Predict, ChunksOverSeveralIterationsSpreadEvenly) {
+  harness::IterationCosts costs;
+  costs.add(4, 8.0);  // 2 each
+  costs.add(0, 5.0);  // ignored
+  costs.add(1, 3.0);
+  EXPECT_EQ(costs.size(), 5);
+  EXPECT_DOUBLE_EQ(costs.range(0, 5), 11.0);
+  EXPECT_DOUBLE_EQ(costs.range(1, 3), 4.0);
+  EXPECT_DOUBLE_EQ(costs.range(3, 5), 5.0);
+  EXPECT_DOUBLE_EQ(costs.total(), 11.0);
+}
+
+TEST(Predict, BlocksBecomeListEntriesByTheirElements) {
+  // Blocks of 3, 0 and 1 live elements costing 6, 1 and 2 ms: over the lists, 4 entries of
+  // 2, 2, 2 and 2 ms; the block without elements is dropped.
+  const auto w =
+      harness::build_workload(synthetic_trace({{6, 1, 2}}, 0.0, {{3, 0, 1}}), "synthetic");
+  ASSERT_EQ(w.loops[0].active.size(), 4);
+  EXPECT_NEAR(w.dropped_for_active_seconds, 1 * kMs, 1e-12);
+  const auto a = row(w, "active-lists", 2);
+  EXPECT_NEAR(a.time, 4 * kMs, 1e-12);
+  EXPECT_NEAR(a.load_imbalance, 0.0, 1e-12);
+}
+
+TEST(Predict, AmdahlLimitIsOneOverTheSequentialShare) {
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(4, 2.5)}, 10.0), "synthetic");
+  const auto p = harness::predict(w, "synthetic", {"static"}, {2, 4}, {});
+  ASSERT_TRUE(p.amdahl_limit.has_value());
+  EXPECT_NEAR(*p.amdahl_limit, 2.0, 1e-12);  // s = 10 / (10 + 10)
+  ASSERT_EQ(p.rows.size(), 2u);
+  EXPECT_NEAR(p.rows[0].speedup, 20.0 / 15.0, 1e-12);
+  EXPECT_FALSE(p.rows[0].beyond_cores);
+  EXPECT_TRUE(p.rows[1].beyond_cores);  // 4 threads on the trace's 2 cores
+}
+
+TEST(Predict, RefusesWhatItCannotReplay) {
+  EXPECT_THROW(ScheduleModel::parse("runtime", OmpRuntimeModel::libgomp), std::invalid_argument);
+  EXPECT_THROW(ScheduleModel::parse("taskloop:2", OmpRuntimeModel::libgomp), std::invalid_argument);
+  EXPECT_THROW(ScheduleModel::parse("no-such-scheduler", OmpRuntimeModel::libgomp),
+               std::invalid_argument);
+  // A chunk that leaves a gap in its loop.
+  auto t = synthetic_trace({{1, 1, 1}}, 0.0);
+  t.chunks[1].begin = 2;
+  EXPECT_THROW(harness::build_workload(t, "gap"), std::invalid_argument);
+}
+
+TEST(Predict, OverheadsComeFromTheMicroBenchmarkJson) {
+  const auto dir = clothbench_test::fresh_dir("predict_overheads");
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "overheads.json";
+  std::ofstream(file) << R"({"benchmarks": [
+    {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 2.0, "chunks_per_loop": 2},
+    {"name": "scheduling_overhead/dynamic:1@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 12.0, "chunks_per_loop": 2048},
+    {"name": "scheduling_overhead/fac2:1@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 30000.0, "chunks_per_loop": 22, "disturbed": 1}]})";
+  const OverheadModel m = harness::read_overhead_model(file);
+  EXPECT_NEAR(m.loop_seconds, 2e-6, 1e-15);
+  EXPECT_EQ(m.measured_threads, 2);
+  // (12 - 2) us over 1024 chunks per thread.
+  EXPECT_NEAR(m.dispatch("dynamic:1@blocks"), 10e-6 / 1024, 1e-15);
+  EXPECT_NEAR(m.dispatch("dynamic:2@blocks"), 10e-6 / 1024, 1e-15);
+  EXPECT_EQ(m.dispatch("fac2:1@blocks"), 0.0);  // its result was disturbed: not used
+  EXPECT_EQ(m.dispatch("tss:1@blocks"), 0.0);   // not measured
+  EXPECT_EQ(m.disturbed, std::vector<std::string>{"fac2:1@blocks"});
+  std::ofstream(dir / "empty.json") << R"({"benchmarks": []})";
+  EXPECT_THROW(harness::read_overhead_model(dir / "empty.json"), std::invalid_argument);
+  EXPECT_THROW(harness::read_overhead_model(dir / "missing.json"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace clothbench
