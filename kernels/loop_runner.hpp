@@ -36,6 +36,11 @@ struct LoopTimes {
     double work = 0.0;            ///< time inside loop bodies (see Instrumentation)
     std::int64_t chunks = 0;      ///< chunks executed
     double loop_work[2] = {0, 0}; ///< this loop's work, double-buffered by loop parity
+    // The loop in progress, written only by this thread while it runs chunks (under taskloop
+    // those may be ranges of a loop another thread started) and consumed by it after the loop.
+    double pending_work = 0.0;      ///< summed chunk durations
+    double pending_last_end = 0.0;  ///< end of the last chunk (monotonic seconds), 0 if none
+    std::int64_t pending_chunks = 0;
   };
   std::vector<PerThread> threads;  ///< one per thread of the team
   double loop_wall = 0.0;          ///< summed wall time of all loops (thread 0, entry to exit)
@@ -316,12 +321,15 @@ void LoopRunner::timed_loop(std::int64_t n, int kind, const LoopSite& site, Rang
     if (thread == 0) trace->add_loop(site, kind, instance, iteration_, n, trace_entry);
   }
   const double entry = timed ? monotonic_seconds() : 0.0;
-  double work = 0.0;
-  double last_end = entry;
-  std::int64_t chunks = 0;
+  // The slot of the thread running a chunk: under taskloop a range may run on another thread
+  // than the one that entered this loop, so each chunk is counted where it ran (no shared
+  // locals written from two threads).
+  auto slot = [&]() -> LoopTimes::PerThread& {
+    return times_->threads[static_cast<std::size_t>(omp_get_thread_num())];
+  };
 
-  // One clock pair serves both the trace and the chunk timing; taskloop may run a range on
-  // another thread than this one, so the record goes to the executing thread's buffer.
+  // One clock pair serves both the trace and the chunk timing; the record goes to the
+  // executing thread's buffer for the same reason.
   auto traced_call = [&](std::int64_t b, std::int64_t e, auto&& range_work) {
     const ChunkTrace::Clock::time_point t0 = ChunkTrace::Clock::now();
     const std::int64_t elements = range_work();
@@ -332,11 +340,12 @@ void LoopRunner::timed_loop(std::int64_t n, int kind, const LoopSite& site, Rang
                                             static_cast<std::int32_t>(elements), 0,
                                             trace->ns(t0), trace->ns(t1)});
     if (!timed) return;
-    last_end = std::chrono::duration<double>(t1.time_since_epoch()).count();
+    auto& mine = slot();
+    mine.pending_last_end = std::chrono::duration<double>(t1.time_since_epoch()).count();
     if (instrumentation_ == Instrumentation::chunks) {
-      work += std::chrono::duration<double>(t1 - t0).count();
+      mine.pending_work += std::chrono::duration<double>(t1 - t0).count();
     }
-    ++chunks;
+    ++mine.pending_chunks;
   };
   auto timed_call = [&](auto&& range_work) {
     if (!timed) {
@@ -346,13 +355,15 @@ void LoopRunner::timed_loop(std::int64_t n, int kind, const LoopSite& site, Rang
     if (instrumentation_ == Instrumentation::chunks) {
       const double start = monotonic_seconds();
       range_work();
-      last_end = monotonic_seconds();
-      work += last_end - start;
+      const double end = monotonic_seconds();
+      auto& mine = slot();
+      mine.pending_last_end = end;
+      mine.pending_work += end - start;
     } else {
       range_work();
-      last_end = monotonic_seconds();
+      slot().pending_last_end = monotonic_seconds();
     }
-    ++chunks;
+    ++slot().pending_chunks;
   };
 
   auto range = [&](std::int64_t b, std::int64_t e) {
@@ -382,9 +393,17 @@ void LoopRunner::timed_loop(std::int64_t n, int kind, const LoopSite& site, Rang
     // no thread can write that entry again before the next loop's barrier.
     const int parity = static_cast<int>(loop_counter_ & 1);
     auto& mine = times_->threads[static_cast<std::size_t>(thread)];
-    const double this_loop = instrumentation_ == Instrumentation::chunks ? work : last_end - entry;
+    // A thread that ran no chunk of this loop did no work in it (its last end is its entry).
+    const double last_end = mine.pending_chunks > 0 ? mine.pending_last_end : entry;
+    const double this_loop =
+        instrumentation_ == Instrumentation::chunks ? mine.pending_work : std::max(0.0, last_end - entry);
     mine.work += this_loop;
-    mine.chunks += chunks;
+    mine.chunks += mine.pending_chunks;
+    // Consumed here, before the barrier below, not reset at the next loop's entry: a thread
+    // still leaving that barrier may already run the next loop's first tasks.
+    mine.pending_work = 0.0;
+    mine.pending_last_end = 0.0;
+    mine.pending_chunks = 0;
     mine.loop_work[parity] = this_loop;
 #pragma omp barrier
     if (thread == 0) {
