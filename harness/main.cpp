@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
   std::string gradient;
   std::string preconditioner;
   std::string method;
+  std::string kernel;
   int steps = 0;
   auto* run_command = app.add_subcommand("run", "Simulate a scene and verify the result");
   run_command->add_option("SCENE", run.scene_file, "Scene file (TOML, see scenarios/README.md)")
@@ -105,6 +106,12 @@ int main(int argc, char** argv) {
                        "Override the step's minimiser: nonlinear-cg or newton (truncated Newton "
                        "with linear PCG on the model Hessian; potential formulation)")
           ->check(CLI::IsMember(clothbench::kernels::step_method_names()));
+  auto* kernel_option =
+      run_command
+          ->add_option("--kernel", kernel,
+                       "Element loops of the potential gradient: reference (scalar, the frozen "
+                       "twin) or vector (SIMD lanes, widest instruction set of this CPU)")
+          ->check(CLI::IsMember(clothbench::kernels::element_kernel_names()));
   auto* preconditioner_option =
       run_command
           ->add_option("--preconditioner", preconditioner,
@@ -266,6 +273,7 @@ int main(int argc, char** argv) {
       if (*formulation_option) run.formulation = formulation;
       if (*gradient_option) run.gradient = gradient;
       if (*method_option) run.method = method;
+      if (*kernel_option) run.kernel = kernel;
       if (*preconditioner_option) run.preconditioner = preconditioner;
       run.write_vtk = !no_vtk;
       if (*trace_option) run.trace_file = trace_file;

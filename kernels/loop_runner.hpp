@@ -161,6 +161,70 @@ class LoopRunner {
         [&](std::int64_t id, NoReduction&, const auto& context) { body(id, context); }, site);
   }
 
+  /// Calls tile_body(ids, count, acc) once per tile that has live elements of `kind`, with
+  /// the tile's live element ids in storage order (exactly the ids for_each visits, grouped by
+  /// tile: a tile is never split between calls, whatever the scheduler or thread count).
+  /// acc is a fresh Acc per tile, stored as that tile's partial when `partials` is not null.
+  /// For kernels that batch a tile's elements into vector lanes (kernels/vector_elements.hpp):
+  /// lane groups formed from `ids` are fixed per tile, so results do not depend on the split.
+  template <class Acc, class TileBody>
+  void for_each_tile(ElementKind kind, TilePartials<Acc>* partials, TileBody&& tile_body,
+                     LoopSite site = {}) {
+    Acc* out = partials == nullptr ? nullptr : partials->buffer(flip(partials, kind));
+    const int kind_code = static_cast<int>(kind);
+    if (driver_.space() == schedulers::IterationSpace::blocks) {
+      const int per_slot = ids_per_slot(kind);
+      timed_loop(mesh_.block_count(), kind_code, site,
+                 [&](std::int64_t b0, std::int64_t b1, auto& timed_call) {
+                   timed_call([&] {
+                     // Per executing thread: a tile runs start to end inside one task.
+                     thread_local std::vector<std::int32_t> ids;
+                     std::int64_t live = 0;
+                     for (std::int64_t t = mesh_.block_tile_begin[b0];
+                          t < mesh_.block_tile_begin[b1]; ++t) {
+                       ids.clear();
+                       for (std::int64_t s = mesh_.tile_slot_begin[t];
+                            s < mesh_.tile_slot_begin[t + 1]; ++s) {
+                         for (int d = 0; d < per_slot; ++d) {
+                           const std::int64_t id = per_slot * s + d;
+                           if (element_is_live(mesh_, kind, id)) {
+                             ids.push_back(static_cast<std::int32_t>(id));
+                           }
+                         }
+                       }
+                       Acc acc{};
+                       if (!ids.empty()) tile_body(ids.data(), static_cast<std::int64_t>(ids.size()), acc);
+                       if (out != nullptr) out[t] = acc;
+                       live += static_cast<std::int64_t>(ids.size());
+                     }
+                     return live;
+                   });
+                 });
+      return;
+    }
+    const ElementList& list = lists_->of(kind);
+    const std::int64_t n = list.size();
+    const std::vector<std::int64_t>& begin = list.tile_begin;
+    auto tile_containing = [&](std::int64_t q) {
+      return static_cast<std::int64_t>(std::upper_bound(begin.begin(), begin.end(), q) -
+                                       begin.begin()) - 1;
+    };
+    auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
+    timed_loop(n, kind_code, site, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
+      const std::int64_t lo = snap(q0), hi = snap(q1);
+      if (lo >= hi) return;
+      timed_call([&] {
+        for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
+          if (begin[t + 1] == begin[t]) continue;
+          Acc acc{};
+          tile_body(list.entries.data() + begin[t], begin[t + 1] - begin[t], acc);
+          if (out != nullptr) out[t] = acc;
+        }
+        return hi - lo;
+      });
+    });
+  }
+
   /// Calls body(k) for every k in [0, n): work over something other than mesh elements (the
   /// line-solve preconditioner's grid lines). Timed like the element loops (it is parallel
   /// work, not sequential overhead); ends with the driver's barrier.

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kernels/potential_elements.hpp"
+#include "kernels/vector/element_lanes.hpp"
 
 namespace clothbench::kernels {
 
@@ -229,21 +230,25 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   const bool numeric = ctx_.config.solver.gradient == GradientMode::numeric;
 
-  run.for_each<ScalarSum>(ElementKind::edges, &edge_partials_,
-                          [&](std::int64_t id, ScalarSum& acc) {
-                            const EdgeTerm e = edge_term(ctx_, id, x);
-                            st.edge_scratch[id] = e.force_density;
-                            acc.value += e.energy;
-                          });
-  run.for_each<ScalarSum>(ElementKind::triples, &triple_partials_,
-                          [&](std::int64_t id, ScalarSum& acc) {
-                            const TripleTerm t = triple_term(ctx_, id, x);
-                            double* k = &st.triple_scratch[3 * id];
-                            k[0] = t.coefficient[0];
-                            k[1] = t.coefficient[1];
-                            k[2] = t.coefficient[2];
-                            acc.value += t.energy;
-                          });
+  if (ctx_.config.solver.kernel == ElementKernel::vector) {
+    evaluate_elements_vector(run);
+  } else {
+    run.for_each<ScalarSum>(ElementKind::edges, &edge_partials_,
+                            [&](std::int64_t id, ScalarSum& acc) {
+                              const EdgeTerm e = edge_term(ctx_, id, x);
+                              st.edge_scratch[id] = e.force_density;
+                              acc.value += e.energy;
+                            });
+    run.for_each<ScalarSum>(ElementKind::triples, &triple_partials_,
+                            [&](std::int64_t id, ScalarSum& acc) {
+                              const TripleTerm t = triple_term(ctx_, id, x);
+                              double* k = &st.triple_scratch[3 * id];
+                              k[0] = t.coefficient[0];
+                              k[1] = t.coefficient[1];
+                              k[2] = t.coefficient[2];
+                              acc.value += t.energy;
+                            });
+  }
   const double dt = ctx_.dt();
   const double g_ref = ctx_.gravity_reference();
   const Eigen::Vector3d gravity = ctx_.config.time.gravity;
@@ -308,6 +313,44 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   e.contact_skipped = p.contact_skipped;
   count_contact_work(e);
   return e;
+}
+
+void PotentialObjective::evaluate_elements_vector(LoopRunner& run) {
+  ClothState& st = ctx_.state;
+  const ClothMesh& mesh = ctx_.mesh;
+  const vector::ElementLanesKernels& lanes = vector::element_lanes_kernels();
+  vector::EdgeLanesArgs edges{st.position.data(),      mesh.next.data(),
+                              mesh.edge_rest.data(),   mesh.edge_width.data(),
+                              st.edge_force.data(),    st.edge_scratch.data(),
+                              {}};
+  vector::TripleLanesArgs triples{st.position.data(),          mesh.prev.data(),
+                                  mesh.next.data(),            mesh.triple_rest.data(),
+                                  mesh.triple_width.data(),    st.triple_moment.data(),
+                                  st.triple_breakpoints.data(), st.triple_scratch.data(),
+                                  {},                          {}};
+  for (int d = 0; d < 2; ++d) {
+    const TensileBand& t = ctx_.material.tensile[d];
+    edges.band[d] = {t.fm, t.emt, t.p, t.q};
+    const BendingBand& b = ctx_.material.bending[d];
+    const double on = b.unloading_onset;
+    triples.band[d] = {b.b, b.hb, b.kappa0, on, 0.5 * b.b * on * on - b.hb * on + b.b * b.kappa0 * on};
+  }
+  // BendingBand::ramp_integral's series coefficients, computed by its own loop.
+  double factorial = 39916800.0;  // 11!
+  for (int k = 11; k >= 2; --k) {
+    triples.ramp.coefficient[11 - k] = ((k % 2 == 0) ? 1.0 : -1.0) / factorial;
+    factorial /= k;
+  }
+  run.for_each_tile<ScalarSum>(
+      ElementKind::edges, &edge_partials_,
+      [&](const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
+        acc.value += lanes.edges(edges, ids, count);
+      });
+  run.for_each_tile<ScalarSum>(
+      ElementKind::triples, &triple_partials_,
+      [&](const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
+        acc.value += lanes.triples(triples, ids, count);
+      });
 }
 
 double PotentialObjective::update_direction(LoopRunner& run, double beta) {

@@ -64,6 +64,9 @@ class PotentialObjective final : public StepObjective {
   Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
   /// Tangent K_e of edge id (material slope along the edge, tension across it).
   Eigen::Matrix3d edge_tangent(std::int64_t id) const;
+  /// The edge and triple loops of evaluate() by the vector twin (ElementKernel::vector):
+  /// each tile's elements in SIMD lanes, writing the same scratch slots and tile partials.
+  void evaluate_elements_vector(LoopRunner& run);
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;

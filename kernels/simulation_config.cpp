@@ -17,6 +17,10 @@ constexpr std::array<std::pair<GradientMode, const char*>, 2> kGradientModes{{
     {GradientMode::analytic, "analytic"},
     {GradientMode::numeric, "numeric"},
 }};
+constexpr std::array<std::pair<ElementKernel, const char*>, 2> kElementKernels{{
+    {ElementKernel::reference, "reference"},
+    {ElementKernel::vector, "vector"},
+}};
 constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
     {StepMethod::nonlinear_cg, "nonlinear-cg"},
     {StepMethod::newton, "newton"},
@@ -65,6 +69,11 @@ std::optional<Preconditioner> preconditioner_from_string(std::string_view text) 
   return value_of(kPreconditioners, text);
 }
 std::vector<std::string> step_method_names() { return names_of(kStepMethods); }
+const char* to_string(ElementKernel kernel) { return name_of(kElementKernels, kernel); }
+std::optional<ElementKernel> element_kernel_from_string(std::string_view text) {
+  return value_of(kElementKernels, text);
+}
+std::vector<std::string> element_kernel_names() { return names_of(kElementKernels); }
 std::vector<std::string> preconditioner_names() { return names_of(kPreconditioners); }
 
 std::vector<ConfigProblem> validate(const SimulationConfig& config) {
@@ -108,6 +117,13 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "along both directions has none",
                         "expected at least 3 particles along one direction, or preconditioner = "
                         "\"line-solves\""});
+  }
+  if (violation && solver.kernel == ElementKernel::vector) {
+    problems.push_back({"solver.kernel", "solver.formulation",
+                        "the vector element kernel is implemented for the potential formulation "
+                        "only",
+                        "expected kernel = \"reference\" with formulation = \"violation\", or "
+                        "formulation = \"potential\""});
   }
   if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
     problems.push_back({"solver.gradient", "amrc.enabled",

@@ -25,6 +25,12 @@ enum class GradientMode {
   numeric,   ///< central differences of each unknown's local cost, as the paper did
 };
 
+/// Which code evaluates the element loops of the potential formulation's gradient (issue 16).
+enum class ElementKernel {
+  reference,  ///< the scalar code of potential_elements.hpp (the frozen reference twin)
+  vector,     ///< SIMD lanes per tile (kernels/vector/element_lanes.hpp), ISA chosen at run time
+};
+
 /// How one implicit step is minimised (MODEL.md section 5).
 enum class StepMethod {
   nonlinear_cg,  ///< Polak-Ribiere+ nonlinear CG (the paper's Algorithm-I)
@@ -45,6 +51,9 @@ enum class Preconditioner {
 const char* to_string(Formulation formulation);
 const char* to_string(GradientMode gradient);
 const char* to_string(StepMethod method);
+const char* to_string(ElementKernel kernel);
+std::optional<ElementKernel> element_kernel_from_string(std::string_view text);
+std::vector<std::string> element_kernel_names();
 const char* to_string(Preconditioner preconditioner);
 std::optional<StepMethod> step_method_from_string(std::string_view text);
 std::optional<Preconditioner> preconditioner_from_string(std::string_view text);
@@ -113,6 +122,9 @@ struct ContactConfig {
 struct SolverConfig {
   Formulation formulation = Formulation::potential;
   GradientMode gradient = GradientMode::analytic;
+  /// The element loops' code (potential formulation, analytic gradient); same model, results
+  /// within the stated tolerance of each other (tests/kernels/unit_vector_elements.cpp).
+  ElementKernel kernel = ElementKernel::reference;
   StepMethod method = StepMethod::nonlinear_cg;
   /// Line solves: exact block-tridiagonal solves along the grid lines of both directions
   /// (potential formulation only; kernels/line_preconditioner.hpp).

@@ -20,6 +20,7 @@
 #include "harness/scene/scene.hpp"
 #include "harness/trace/trace_output.hpp"
 #include "kernels/simulation.hpp"
+#include "kernels/vector/element_lanes.hpp"
 #include "schedulers/registry.hpp"
 
 namespace clothbench::harness {
@@ -43,6 +44,7 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
                                                      : kernels::GradientMode::analytic;
   }
   if (options.method) solver.method = *kernels::step_method_from_string(*options.method);
+  if (options.kernel) solver.kernel = *kernels::element_kernel_from_string(*options.kernel);
   if (options.preconditioner) {
     solver.preconditioner = *kernels::preconditioner_from_string(*options.preconditioner);
   }
@@ -135,6 +137,12 @@ int run_scene(const RunOptions& options) {
              kernels::to_string(scene.simulation.solver.gradient),
              kernels::to_string(scene.simulation.solver.method),
              kernels::to_string(scene.simulation.solver.preconditioner));
+  if (scene.simulation.solver.kernel == kernels::ElementKernel::vector) {
+    const kernels::vector::ElementLanesKernels& lanes = kernels::vector::element_lanes_kernels();
+    fmt::print("  kernel vector ({}, {} lanes)\n", lanes.isa, lanes.lanes);
+  } else {
+    fmt::print("  kernel reference\n");
+  }
   fmt::print("  scheduler {}, threads {}{}, steps {}\n", driver->name(), threads,
              oversubscribed ? " (OVERSUBSCRIBED)" : "", scene.steps);
   if (!driver->note().empty()) fmt::print("  note: {}\n", driver->note());

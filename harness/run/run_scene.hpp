@@ -16,6 +16,7 @@ struct RunOptions {
   std::optional<int> steps;                ///< override the scene's step count
   std::optional<std::string> formulation;  ///< override: "potential" | "violation"
   std::optional<std::string> gradient;     ///< override: "analytic" | "numeric"
+  std::optional<std::string> kernel;          ///< override: kernels::element_kernel_names()
   std::optional<std::string> method;          ///< override: kernels::step_method_names()
   std::optional<std::string> preconditioner;  ///< override: kernels::preconditioner_names()
   std::filesystem::path output_dir = "results/runs";  ///< where the VTK and JSON go

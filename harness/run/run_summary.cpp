@@ -215,6 +215,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"solver", {{"formulation", kernels::to_string(scene.simulation.solver.formulation)},
                   {"gradient", kernels::to_string(scene.simulation.solver.gradient)},
                   {"method", s.method},
+                  {"kernel", kernels::to_string(scene.simulation.solver.kernel)},
                   {"preconditioner", kernels::to_string(scene.simulation.solver.preconditioner)}}},
       {"cg_iterations", s.total_iterations},
       {"linear_iterations", s.total_linear_iterations},

@@ -196,7 +196,7 @@ void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
 }
 
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
-  reader.allow_only({"formulation", "gradient", "method", "preconditioner", "line_solves",
+  reader.allow_only({"formulation", "gradient", "kernel", "method", "preconditioner", "line_solves",
                      "tolerance", "max_iterations", "max_newton_iterations",
                      "max_linear_iterations", "numeric_step", "weights", "stretch_reference_fm",
                      "time_budget_s"});
@@ -207,6 +207,9 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   if (auto v = reader.choice("gradient", {"analytic", "numeric"})) {
     solver.gradient =
         *v == "numeric" ? kernels::GradientMode::numeric : kernels::GradientMode::analytic;
+  }
+  if (auto v = reader.choice("kernel", kernels::element_kernel_names())) {
+    solver.kernel = *kernels::element_kernel_from_string(*v);
   }
   if (auto v = reader.choice("method", kernels::step_method_names())) {
     solver.method = *kernels::step_method_from_string(*v);

@@ -1,0 +1,71 @@
+// The vector twin of the potential formulation's element loops (issue 16): plain-data inputs
+// of one tile's edges and triples, and the per-instruction-set kernels that evaluate them in
+// SIMD lanes. Free of Eigen and of the kernel's other headers on purpose: the kernels are
+// compiled once per instruction set (element_lanes_<isa>.cpp, each with its own -m flags) and
+// must share no inline function with the rest of the program (one definition per symbol).
+// The scalar reference is potential_elements.hpp (edge_term, triple_term); same branches.
+#pragma once
+
+#include <cstdint>
+
+namespace clothbench::kernels::vector {
+
+/// TensileBand's parameters (kes_material.hpp): Fm (N/m), EMT (strain), exponents p, q.
+struct TensileLanesBand {
+  double fm, emt, p, q;
+};
+
+/// BendingBand's parameters (kes_material.hpp) with what its integrals need, per direction.
+struct BendingLanesBand {
+  double b, hb, kappa0, onset;
+  double at_onset;  ///< 0.5 B on^2 - HB on + B kappa0 on (unloading_integral's constant)
+};
+
+/// Coefficients of ramp_integral's Taylor series, highest order first (k = 11 .. 2): the same
+/// doubles BendingBand::ramp_integral computes in its loop.
+struct RampSeries {
+  double coefficient[10];
+};
+
+/// One evaluation's inputs and outputs of the edge loop (arrays of ClothMesh / ClothState).
+struct EdgeLanesArgs {
+  const double* position;        ///< xyz per slot
+  const std::int32_t* next;      ///< per element id
+  const float* rest;             ///< per element id, m
+  const float* width;            ///< per element id, m
+  const double* previous_force;  ///< per element id, N/m
+  double* force_density;         ///< out, per element id: w t / l
+  TensileLanesBand band[2];      ///< per direction
+};
+
+/// The same for the triple loop.
+struct TripleLanesArgs {
+  const double* position;
+  const std::int32_t* prev;
+  const std::int32_t* next;
+  const float* rest;
+  const float* width;
+  const double* previous_moment;  ///< per element id, N
+  const double* breakpoints;      ///< 2 per element id: {lower, upper} (cached per step)
+  double* coefficients;           ///< out, 3 per element id: w M (A, Bc, C)
+  BendingLanesBand band[2];
+  RampSeries ramp;
+};
+
+/// The kernels of one instruction set. Each evaluates the elements `ids[0..count)` of one tile
+/// in lane groups of `lanes` consecutive ids (the last group padded with copies of the last id,
+/// whose results are dropped), writes each element's scratch slots, and returns the sum of
+/// their energies (J) in id order within each group and group order within the tile.
+struct ElementLanesKernels {
+  const char* isa;  ///< "avx512f", "avx2+fma", "sse2"
+  int lanes;        ///< doubles per vector
+  double (*edges)(const EdgeLanesArgs& args, const std::int32_t* ids, std::int64_t count);
+  double (*triples)(const TripleLanesArgs& args, const std::int32_t* ids, std::int64_t count);
+};
+
+/// The best kernels this CPU runs (chosen once, at first call, from CPUID).
+const ElementLanesKernels& element_lanes_kernels();
+/// The kernels of every instruction set this CPU supports, best first (for tests).
+int supported_element_lanes_kernels(const ElementLanesKernels** out, int capacity);
+
+}  // namespace clothbench::kernels::vector

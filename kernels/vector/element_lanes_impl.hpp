@@ -1,0 +1,252 @@
+// The element-lane kernels of element_lanes.hpp, templated on an xsimd architecture. Included
+// only by element_lanes_<isa>.cpp, each compiled with its instruction set's flags; everything
+// here sits in an unnamed namespace so no symbol is shared between those translation units.
+//
+// Each function mirrors its scalar reference branch for branch (potential_elements.hpp
+// fast_return_map, element_geometry.hpp turning_angle, kes_material.hpp bands): every branch
+// is evaluated for all lanes and the scalar code's choice is made with masks (select), in the
+// reference's operation order. Branches that need extra transcendental calls (the plateau and
+// unloading breakpoints, atan2 of a turning angle beyond the series) run only when a lane of
+// the group takes them. Differences from the reference come only from xsimd's exp, log,
+// expm1, pow and atan2 against libm's (a few ulp).
+#pragma once
+
+#include <xsimd/xsimd.hpp>
+
+#include "kernels/vector/element_lanes.hpp"
+
+namespace clothbench::kernels::vector {
+namespace {
+
+template <class Arch>
+struct Lanes {
+  using V = xsimd::batch<double, Arch>;
+  using M = xsimd::batch_bool<double, Arch>;
+  static constexpr int kWidth = static_cast<int>(V::size);
+
+  /// Lane-wise choice between the band parameters of direction 0 and 1.
+  static V pick(const M& direction_one, double one, double zero) {
+    return xsimd::select(direction_one, V(one), V(zero));
+  }
+
+  // --- tension (TensileBand, fast_return_map<TensileBand>) -----------------------------
+  struct Tensile {
+    V fm, emt, p, q;
+  };
+  /// power_integral(eps, exponent) of TensileBand.
+  static V tensile_integral(const Tensile& t, const V& eps, const V& exponent) {
+    const V beyond = eps - t.emt;
+    const V linear = t.fm * t.emt / (exponent + V(1.0)) + t.fm * beyond +
+                     V(0.5) * t.fm * t.p / t.emt * beyond * beyond;
+    const V power = t.fm * xsimd::pow(eps / t.emt, exponent) * eps / (exponent + V(1.0));
+    return xsimd::select(eps > V(0.0), xsimd::select(eps >= t.emt, linear, power), V(0.0));
+  }
+  /// power_inverse(force, exponent) of TensileBand.
+  static V tensile_inverse(const Tensile& t, const V& force, const V& exponent) {
+    const V linear = t.emt + (force - t.fm) * t.emt / (t.fm * t.p);
+    const V power = t.emt * xsimd::pow(force / t.fm, V(1.0) / exponent);
+    return xsimd::select(force > V(0.0), xsimd::select(force >= t.fm, linear, power), V(0.0));
+  }
+
+  static double edges(const EdgeLanesArgs& args, const std::int32_t* ids, std::int64_t count) {
+    alignas(64) double dx[kWidth], dy[kWidth], dz[kWidth], rest[kWidth], width[kWidth];
+    alignas(64) double previous[kWidth], direction[kWidth], out_density[kWidth], out_energy[kWidth];
+    double sum = 0.0;
+    for (std::int64_t g = 0; g < count; g += kWidth) {
+      const int live = count - g < kWidth ? static_cast<int>(count - g) : kWidth;
+      for (int l = 0; l < kWidth; ++l) {  // gather: the edge's vector x_b - x_a, per lane
+        const std::int64_t id = ids[g + (l < live ? l : live - 1)];
+        const double* xa = args.position + 3 * (id / 2);
+        const double* xb = args.position + 3 * static_cast<std::int64_t>(args.next[id]);
+        dx[l] = xb[0] - xa[0];
+        dy[l] = xb[1] - xa[1];
+        dz[l] = xb[2] - xa[2];
+        rest[l] = args.rest[id];
+        width[l] = args.width[id];
+        previous[l] = args.previous_force[id];
+        direction[l] = static_cast<double>(id % 2);
+      }
+      const M one = V::load_aligned(direction) > V(0.5);
+      const Tensile t{pick(one, args.band[1].fm, args.band[0].fm),
+                      pick(one, args.band[1].emt, args.band[0].emt),
+                      pick(one, args.band[1].p, args.band[0].p),
+                      pick(one, args.band[1].q, args.band[0].q)};
+      const V ex = V::load_aligned(dx), ey = V::load_aligned(dy), ez = V::load_aligned(dz);
+      const V length = xsimd::sqrt(ex * ex + ey * ey + ez * ez);
+      const V l0 = V::load_aligned(rest), w = V::load_aligned(width);
+      const V prev = V::load_aligned(previous);
+      const V strain = length / l0 - V(1.0);
+      // curves(strain)
+      const M positive = strain > V(0.0);
+      const M beyond = strain >= t.emt;
+      const V linear_slope = t.fm * t.p / t.emt;
+      const V linear = t.fm + linear_slope * (strain - t.emt);
+      const V log_ratio = xsimd::log(strain / t.emt);
+      const V upper_power = t.fm * xsimd::exp(t.p * log_ratio);
+      const V lower_power = t.fm * xsimd::exp(t.q * log_ratio);
+      const V upper = xsimd::select(beyond, linear, upper_power);
+      const V lower = xsimd::select(beyond, linear, lower_power);
+      // loading branch
+      const M loading = !(prev < upper);
+      const V loading_potential =
+          xsimd::select(strain < t.emt, upper * strain / (t.p + V(1.0)),
+                        tensile_integral(t, strain, t.p));
+      V force = upper, potential = loading_potential;
+      const M off = positive & !loading;
+      if (xsimd::any(off)) {  // plateau or unloading: the breakpoints of the previous force
+        const V lower_bp = tensile_inverse(t, prev, t.p);
+        const V upper_bp = xsimd::max(lower_bp, tensile_inverse(t, prev, t.q));
+        const V lower_potential = tensile_integral(t, lower_bp, t.p);
+        const M plateau = !(prev < lower);
+        const V plateau_potential = lower_potential + prev * (strain - lower_bp);
+        const V unloading_potential = lower_potential + prev * (upper_bp - lower_bp) -
+                                      tensile_integral(t, upper_bp, t.q) +
+                                      tensile_integral(t, strain, t.q);
+        force = xsimd::select(loading, upper, xsimd::select(plateau, prev, lower));
+        potential = xsimd::select(loading, loading_potential,
+                                  xsimd::select(plateau, plateau_potential, unloading_potential));
+      }
+      force = xsimd::select(positive, force, V(0.0));
+      potential = xsimd::select(positive, potential, V(0.0));
+      const V energy = w * l0 * potential;
+      const V density = xsimd::select(length > V(0.0), w * force / length, V(0.0));
+      density.store_aligned(out_density);
+      energy.store_aligned(out_energy);
+      for (int l = 0; l < live; ++l) {
+        args.force_density[ids[g + l]] = out_density[l];
+        sum += out_energy[l];
+      }
+    }
+    return sum;
+  }
+
+  // --- bending (BendingBand, fast_return_map<BendingBand> with cached breakpoints) -------
+  struct Bending {
+    V b, hb, kappa0, onset, at_onset;
+  };
+  /// ramp_integral(x) = x + exp(-x) - 1, by its series below 0.1; `em1` = expm1(-x).
+  static V ramp(const RampSeries& series, const V& x, const V& em1) {
+    V sum(0.0);
+    for (double c : series.coefficient) sum = sum * x + V(c);
+    return xsimd::select(x < V(0.1), sum * x * x, x + em1);
+  }
+  /// loading_integral(kappa); `em1` = expm1(-kappa / kappa0).
+  static V bending_loading_integral(const Bending& b, const RampSeries& s, const V& kappa,
+                                    const V& em1) {
+    const V value = V(0.5) * b.b * kappa * kappa + b.hb * b.kappa0 * ramp(s, kappa / b.kappa0, em1);
+    return xsimd::select(kappa > V(0.0), value, V(0.0));
+  }
+  /// unloading_integral(kappa); `em1` = expm1(-kappa / kappa0).
+  static V bending_unloading_integral(const Bending& b, const RampSeries& s, const V& kappa,
+                                      const V& em1) {
+    const V value = V(0.5) * b.b * kappa * kappa - b.hb * b.kappa0 * ramp(s, kappa / b.kappa0, em1) -
+                    b.at_onset;
+    return xsimd::select(kappa > b.onset, value, V(0.0));
+  }
+
+  static double triples(const TripleLanesArgs& args, const std::int32_t* ids, std::int64_t count) {
+    alignas(64) double e1x[kWidth], e1y[kWidth], e1z[kWidth], e2x[kWidth], e2y[kWidth], e2z[kWidth];
+    alignas(64) double rest[kWidth], width[kWidth], previous[kWidth], direction[kWidth];
+    alignas(64) double lower_bp[kWidth], upper_bp[kWidth];
+    alignas(64) double out_a[kWidth], out_bc[kWidth], out_c[kWidth], out_energy[kWidth];
+    double sum = 0.0;
+    for (std::int64_t g = 0; g < count; g += kWidth) {
+      const int live = count - g < kWidth ? static_cast<int>(count - g) : kWidth;
+      for (int l = 0; l < kWidth; ++l) {  // gather: e1 = x_c - x_a, e2 = x_b - x_c per lane
+        const std::int64_t id = ids[g + (l < live ? l : live - 1)];
+        const double* xc = args.position + 3 * (id / 2);
+        const double* xa = args.position + 3 * static_cast<std::int64_t>(args.prev[id]);
+        const double* xb = args.position + 3 * static_cast<std::int64_t>(args.next[id]);
+        e1x[l] = xc[0] - xa[0];
+        e1y[l] = xc[1] - xa[1];
+        e1z[l] = xc[2] - xa[2];
+        e2x[l] = xb[0] - xc[0];
+        e2y[l] = xb[1] - xc[1];
+        e2z[l] = xb[2] - xc[2];
+        rest[l] = args.rest[id];
+        width[l] = args.width[id];
+        previous[l] = args.previous_moment[id];
+        lower_bp[l] = args.breakpoints[2 * id];
+        upper_bp[l] = args.breakpoints[2 * id + 1];
+        direction[l] = static_cast<double>(id % 2);
+      }
+      const M one = V::load_aligned(direction) > V(0.5);
+      const Bending bb{pick(one, args.band[1].b, args.band[0].b),
+                       pick(one, args.band[1].hb, args.band[0].hb),
+                       pick(one, args.band[1].kappa0, args.band[0].kappa0),
+                       pick(one, args.band[1].onset, args.band[0].onset),
+                       pick(one, args.band[1].at_onset, args.band[0].at_onset)};
+      // turning_angle(e1, e2)
+      const V ax = V::load_aligned(e1x), ay = V::load_aligned(e1y), az = V::load_aligned(e1z);
+      const V bx = V::load_aligned(e2x), by = V::load_aligned(e2y), bz = V::load_aligned(e2z);
+      const V n1sq = ax * ax + ay * ay + az * az;
+      const V n2sq = bx * bx + by * by + bz * bz;
+      const V n1 = xsimd::sqrt(n1sq), n2 = xsimd::sqrt(n2sq);
+      const V cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+      const V cross = xsimd::sqrt(cx * cx + cy * cy + cz * cz);
+      const V dot = ax * bx + ay * by + az * bz;
+      const M series = (dot > V(0.0)) & (cross < V(1e-3) * dot);
+      const V r = cross / dot, r2 = r * r;
+      V theta = r * (V(1.0) - r2 * (V(1.0) / V(3.0) - r2 * (V(1.0) / V(5.0) - r2 / V(7.0))));
+      if (!xsimd::all(series)) theta = xsimd::select(series, theta, xsimd::atan2(cross, dot));
+      const V n12 = n1 * n2;
+      const M bent = cross > V(1e-12) * n12;  // !degenerate (kStraightSine)
+      const V sine = cross / n12, cosine = dot / n12;
+      const V coef_a = xsimd::select(bent, cosine / (sine * n1sq), V(0.0));
+      const V coef_bc = xsimd::select(bent, V(1.0) / (sine * n12), V(0.0));
+      const V coef_c = xsimd::select(bent, cosine / (sine * n2sq), V(0.0));
+      // fast_return_map(bending, previous, curvature, cached breakpoints)
+      const V l0 = V::load_aligned(rest), w = V::load_aligned(width);
+      const V prev = V::load_aligned(previous);
+      const V kappa = theta / l0;
+      const M positive = kappa > V(0.0);
+      const V em1 = xsimd::expm1(-kappa / bb.kappa0);
+      const V upper = bb.b * kappa - bb.hb * em1;
+      const V lower = xsimd::select(kappa > bb.onset, xsimd::max(V(0.0), bb.b * kappa + bb.hb * em1),
+                                    V(0.0));
+      const M loading = !(prev < upper);
+      const V loading_potential = bending_loading_integral(bb, args.ramp, kappa, em1);
+      V force = upper, potential = loading_potential;
+      const M off = positive & !loading;
+      if (xsimd::any(off)) {  // plateau or unloading, with the step's cached breakpoints
+        const V lo = V::load_aligned(lower_bp), hi = V::load_aligned(upper_bp);
+        const V lo_em1 = xsimd::expm1(-(lo / bb.kappa0));
+        const V hi_em1 = xsimd::expm1(-(hi / bb.kappa0));
+        const V lower_potential = bending_loading_integral(bb, args.ramp, lo, lo_em1);
+        const M plateau = !(prev < lower);
+        const V plateau_potential = lower_potential + prev * (kappa - lo);
+        const V unloading_potential = lower_potential + prev * (hi - lo) -
+                                      bending_unloading_integral(bb, args.ramp, hi, hi_em1) +
+                                      bending_unloading_integral(bb, args.ramp, kappa, em1);
+        force = xsimd::select(loading, upper, xsimd::select(plateau, prev, lower));
+        potential = xsimd::select(loading, loading_potential,
+                                  xsimd::select(plateau, plateau_potential, unloading_potential));
+      }
+      force = xsimd::select(positive, force, V(0.0));
+      potential = xsimd::select(positive, potential, V(0.0));
+      const V energy = w * l0 * potential;
+      const V wm = w * force;
+      (wm * coef_a).store_aligned(out_a);
+      (wm * coef_bc).store_aligned(out_bc);
+      (wm * coef_c).store_aligned(out_c);
+      energy.store_aligned(out_energy);
+      for (int l = 0; l < live; ++l) {
+        double* k = args.coefficients + 3 * static_cast<std::int64_t>(ids[g + l]);
+        k[0] = out_a[l];
+        k[1] = out_bc[l];
+        k[2] = out_c[l];
+        sum += out_energy[l];
+      }
+    }
+    return sum;
+  }
+};
+
+/// The kernels of `Arch` as an ElementLanesKernels row.
+template <class Arch>
+ElementLanesKernels lanes_kernels(const char* isa) {
+  return ElementLanesKernels{isa, Lanes<Arch>::kWidth, &Lanes<Arch>::edges, &Lanes<Arch>::triples};
+}
+
+}  // namespace
+}  // namespace clothbench::kernels::vector
