@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "kernels/potential_elements.hpp"
-#include "kernels/vector/element_lanes.hpp"
+#include "kernels/vector_lanes_args.hpp"
 
 namespace clothbench::kernels {
 
@@ -319,28 +319,8 @@ void PotentialObjective::evaluate_elements_vector(LoopRunner& run) {
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   const vector::ElementLanesKernels& lanes = vector::element_lanes_kernels();
-  vector::EdgeLanesArgs edges{st.position.data(),      mesh.next.data(),
-                              mesh.edge_rest.data(),   mesh.edge_width.data(),
-                              st.edge_force.data(),    st.edge_scratch.data(),
-                              {}};
-  vector::TripleLanesArgs triples{st.position.data(),          mesh.prev.data(),
-                                  mesh.next.data(),            mesh.triple_rest.data(),
-                                  mesh.triple_width.data(),    st.triple_moment.data(),
-                                  st.triple_breakpoints.data(), st.triple_scratch.data(),
-                                  {},                          {}};
-  for (int d = 0; d < 2; ++d) {
-    const TensileBand& t = ctx_.material.tensile[d];
-    edges.band[d] = {t.fm, t.emt, t.p, t.q};
-    const BendingBand& b = ctx_.material.bending[d];
-    const double on = b.unloading_onset;
-    triples.band[d] = {b.b, b.hb, b.kappa0, on, 0.5 * b.b * on * on - b.hb * on + b.b * b.kappa0 * on};
-  }
-  // BendingBand::ramp_integral's series coefficients, computed by its own loop.
-  double factorial = 39916800.0;  // 11!
-  for (int k = 11; k >= 2; --k) {
-    triples.ramp.coefficient[11 - k] = ((k % 2 == 0) ? 1.0 : -1.0) / factorial;
-    factorial /= k;
-  }
+  const vector::EdgeLanesArgs edges = vector::edge_lanes_args(mesh, st, ctx_.material);
+  const vector::TripleLanesArgs triples = vector::triple_lanes_args(mesh, st, ctx_.material);
   run.for_each_tile<ScalarSum>(
       ElementKind::edges, &edge_partials_,
       [&](const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {

@@ -27,6 +27,7 @@ struct Case {
   bool line_solves = false;  ///< the line-solve preconditioner instead of block Jacobi
   bool newton = false;       ///< Newton with linear PCG instead of nonlinear CG
   bool multigrid = false;    ///< Newton's PCG preconditioned by the multigrid
+  bool vector = false;       ///< the vector element kernel (ElementKernel::vector)
 };
 
 /// Events on every one of the four steps: a pull (on a particle AMRC may have coarsened away
@@ -75,6 +76,7 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
+  if (test_case.vector) c.solver.kernel = kernels::ElementKernel::vector;
   if (test_case.line_solves) c.solver.preconditioner = kernels::Preconditioner::line_solves;
   if (test_case.multigrid) c.solver.preconditioner = kernels::Preconditioner::multigrid;
   if (test_case.newton) {
@@ -184,7 +186,9 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, true, true, false, true},
                                            Case{kernels::Formulation::potential, true, true, true, true},
                                            Case{kernels::Formulation::potential, false, false, false, true, true},
-                                           Case{kernels::Formulation::potential, true, true, false, true, true}),
+                                           Case{kernels::Formulation::potential, true, true, false, true, true},
+                                           Case{kernels::Formulation::potential, false, false, false, false, false, true},
+                                           Case{kernels::Formulation::potential, true, true, false, false, false, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
@@ -193,6 +197,7 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                            if (info.param.events) name += "_events";
                            if (info.param.line_solves) name += "_lines";
                            if (info.param.multigrid) name += "_multigrid";
+                           if (info.param.vector) name += "_vector";
                            return info.param.newton ? name + "_newton" : name;
                          });
 
