@@ -285,6 +285,25 @@ TEST(SceneLoader, FullSceneRoundTripsToTheExpectedConfig) {
   EXPECT_DOUBLE_EQ(sim.obstacles[3].half_length, 0.4);
 }
 
+TEST(SceneLoader, ElementKernelReadsAndTheVectorOneIsRefusedForTheViolationFormulation) {
+  const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nkernel = \"vector\"\n";
+  EXPECT_EQ(parse_scene(text, "kernel.toml", kPresets).simulation.solver.kernel,
+            clothbench::kernels::ElementKernel::vector);
+  EXPECT_EQ(parse_scene("[cloth]\nparticles = [9, 9]\n", "kernel.toml", kPresets)
+                .simulation.solver.kernel,
+            clothbench::kernels::ElementKernel::reference);
+  EXPECT_THROW((void)parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nkernel = \"simd\"\n",
+                                 "kernel.toml", kPresets),
+               SceneError);
+  try {
+    (void)parse_scene(text + "formulation = \"violation\"\n", "kernel.toml", kPresets);
+    FAIL() << "the kernel refuses this combination; the loader must too";
+  } catch (const SceneError& error) {
+    EXPECT_THAT(error.what(), HasSubstr("the vector element kernel is implemented for the "
+                                        "potential formulation only"));
+  }
+}
+
 TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormulation) {
   const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n"
                            "gradient = \"numeric\"\n";
