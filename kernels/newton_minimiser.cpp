@@ -74,6 +74,13 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     }
     previous_norm = norm;
     current = ls.at;
+    if (settings.smoothing_sweeps > 0) {
+      // Local nonlinear corrections the global model cannot make: an element past a kink of
+      // its band (plateau wall, onset of tension) is relaxed particle by particle.
+      report.smoothed += objective.smooth(run, settings.smoothing_sweeps, settings.smoothing_threshold);
+      current = objective.evaluate(run);
+      ++report.evaluations;
+    }
     if (settings.record_values) report.values.push_back(current.value);
     ++report.iterations;
   }

@@ -50,6 +50,10 @@ void PotentialObjective::begin_step(LoopRunner& run) {
         if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 1.0, mask);
       });
   refresh_ghosts(run, ctx_.mesh, st.position);
+  // The colouring follows the active set and the pins, which change only between steps.
+  if (newton_ != nullptr && effective_smoothing_sweeps(ctx_.config.solver) > 0) {
+    colour_for_smoothing(run);
+  }
   refresh_preconditioner(run);
 }
 

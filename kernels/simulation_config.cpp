@@ -109,6 +109,12 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "expected at least 3 particles along one direction, or preconditioner = "
                         "\"line-solves\""});
   }
+  if (solver.smoothing_sweeps > 0 && solver.method != StepMethod::newton) {
+    problems.push_back({"solver.smoothing_sweeps", "solver.method",
+                        "the nonlinear smoothing runs after each of Newton's line searches",
+                        "expected method = \"newton\" with smoothing_sweeps > 0, or "
+                        "smoothing_sweeps = 0"});
+  }
   if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
     problems.push_back({"solver.gradient", "amrc.enabled",
                         "the numeric gradient of the violation formulation is not available with "
