@@ -87,8 +87,9 @@ void expect_finite_numbers(const json& b) {
   }
 }
 
-/// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) counted the chunks
-/// their per-chunk figure divides by exactly: ceil(n / k) for dynamic:k, one per thread for
+/// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) ran at 1 thread
+/// and at `threads` (static@blocks at both), and counted the chunks their per-chunk figure
+/// divides by exactly: ceil(n / k) for dynamic:k, one per thread for
 /// static and active-lists, the same count in every loop of those, and the per-chunk overhead is
 /// the per-loop overhead over one thread's share of them.
 void expect_exact_chunk_counts(const json& d, int threads) {

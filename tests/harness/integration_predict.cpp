@@ -8,7 +8,10 @@
 //    (static, active-lists), the same chunk ranges where threads race for them (fac2, tss,
 //    gss, dynamic:2);
 //  - `clothbench predict` prints a labelled Table 2 and refuses bad input naming the flag or
-//    file with exit code 2; `--validate` predicts the rows of a sweep from its traces.
+//    file with exit code 2; `--validate` predicts the rows of a sweep from its traces;
+//  - `sweep --trace DIR --trace-overheads FILE` stores the scheduling costs in each trace's
+//    header, which reads back to the same model, and `predict` uses them (and says so) when no
+//    --overheads is given; bad --trace-overheads input is refused naming the flag, exit 2.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <omp.h>

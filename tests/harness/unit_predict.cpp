@@ -1,7 +1,8 @@
 // The schedule predictor (harness/predict, issue 17) on synthetic traces with answers worked
 // out by hand: uniform work under static, one heavy iteration under static and dynamic:1,
 // dispatch costs per chunk, sequential time, the blocks-to-Active-Lists conversion, the
-// overheads file of the scheduling-overhead micro-benchmark, and specs it refuses.
+// overheads file of the scheduling-overhead micro-benchmark (what P threads cost beyond 1
+// thread, added above 1 thread only, and its stored form), and specs it refuses.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
