@@ -158,22 +158,34 @@ TEST(ModelHessian, EqualsTheFiniteDifferenceJacobianOfTheGradientWhereTheModelIs
   }
 }
 
-TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
+/// A 9 x 9 cloth for AMRC with L = 2, with pins and obstacles (testing::small_cloth).
+kernels::SimulationConfig graded_config() {
   kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
   c.cloth.particles_i = 9;
   c.cloth.particles_j = 9;
   c.amrc.enabled = true;
   c.amrc.levels = 2;
+  return c;
+}
+
+/// Coarse cells beside fine ones (ghosts on the shared sides), then a random state of `seed`
+/// and the model assembled there.
+void grade_and_randomise(ModelFixture& f, unsigned seed) {
+  kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
+  ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
+  ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
+  f.sim.end_tree_edit();
+  ASSERT_GT(f.sim.mesh().ghost_count(), 0);
+  testing::randomise_state(f.sim, seed);
+  f.assemble();
+}
+
+TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
+  const kernels::SimulationConfig c = graded_config();
   for (unsigned seed : {1u, 2u, 3u}) {
     ModelFixture f(c);
-    // Coarse cells beside fine ones: ghosts on the shared sides.
-    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
-    f.sim.end_tree_edit();
-    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
-    testing::randomise_state(f.sim, seed);
-    f.assemble();
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
     for (unsigned k = 0; k < 4; ++k) {
       const std::vector<double> x = random_free_vector(f.sim, 10 * seed + k);
       const std::vector<double> y = random_free_vector(f.sim, 100 * seed + k);
@@ -255,21 +267,12 @@ void owners_of(const kernels::ClothMesh& mesh, std::int64_t k, std::vector<std::
 }
 
 TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFalls) {
-  kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
-  c.cloth.particles_i = 9;
-  c.cloth.particles_j = 9;
-  c.amrc.enabled = true;
-  c.amrc.levels = 2;
+  kernels::SimulationConfig c = graded_config();
   c.solver.smoothing_sweeps = 3;
   for (unsigned seed : {1u, 2u, 3u}) {
     ModelFixture f(c);
-    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
-    f.sim.end_tree_edit();
-    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
-    testing::randomise_state(f.sim, seed);
-    f.assemble();
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
     kernels::Evaluation before, after;
     std::int64_t moved = 0;
     f.run([&](kernels::LoopRunner& r) {
