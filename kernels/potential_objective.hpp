@@ -77,6 +77,10 @@ class PotentialObjective final : public StepObjective {
   /// The gradient of Phi at particle s from the current positions (what evaluate computes
   /// for s, without the loops over every element).
   Eigen::Vector3d local_gradient(std::int64_t s) const;
+  /// The particle's own part of the gradient at xs: inertia, gravity and `contact` (evaluated
+  /// at xs); the elements' part is gathered and a scripted force subtracted after it.
+  Eigen::Vector3d own_gradient(std::int64_t s, const Eigen::Vector3d& xs,
+                               const ContactPenalty& contact) const;
   /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact with the
   /// obstacles in `mask`).
   Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;

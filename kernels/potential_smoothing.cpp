@@ -20,11 +20,11 @@ namespace clothbench::kernels {
 
 namespace {
 
-/// Calls f(k) for every active particle whose move changes an element that touches particle s
-/// or one of the ghosts hanging on it (s included; ghosts resolved into their parents).
+/// Calls f(k) for every active particle whose move changes a term of local_energy(s): the
+/// nodes of every element touching s or a ghost hanging on it (for_each_element_at, the
+/// enumeration local_energy sums over), ghosts resolved into the particles that move them.
 template <class F>
 void for_each_footprint(const ClothMesh& mesh, std::int64_t s, F&& f) {
-  // The active particles that move node k: k itself, or a ghost's parents (recursively).
   auto owners = [&](auto&& self, std::int64_t k) -> void {
     const int d = ghost_direction(mesh.flags[k]);
     if (d < 0) {
@@ -36,29 +36,17 @@ void for_each_footprint(const ClothMesh& mesh, std::int64_t s, F&& f) {
     self(self, mesh.next[id]);
   };
   auto around = [&](auto&& self, std::int64_t m) -> void {
-    for (int d = 0; d < 2; ++d) {
-      const std::int64_t id = element_id(m, d);
-      const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-      if (mesh.edge_active[id] && n >= 0) owners(owners, n);
-      if (mesh.triple_active[id]) {
-        owners(owners, p);
-        owners(owners, n);
-      }
-      if (p >= 0) {
-        const std::int64_t ep = element_id(p, d);
-        if (mesh.next[ep] == m && (mesh.edge_active[ep] || mesh.triple_active[ep])) {
-          owners(owners, p);
-          if (mesh.triple_active[ep]) owners(owners, mesh.prev[ep]);
-        }
-      }
-      if (n >= 0) {
-        const std::int64_t tn = element_id(n, d);
-        if (mesh.triple_active[tn] && mesh.prev[tn] == m) {
-          owners(owners, n);
-          owners(owners, mesh.next[tn]);
-        }
-      }
-    }
+    for_each_element_at(
+        mesh, m,
+        [&](std::int64_t id) {
+          owners(owners, element_slot(id));
+          owners(owners, mesh.next[id]);
+        },
+        [&](std::int64_t id) {
+          owners(owners, mesh.prev[id]);
+          owners(owners, element_slot(id));
+          owners(owners, mesh.next[id]);
+        });
     for_each_ghost_child(mesh, m, [&](std::int64_t child) { self(self, child); });
   };
   f(s);
@@ -93,20 +81,18 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
 
 Eigen::Vector3d PotentialObjective::local_gradient(std::int64_t s) const {
   if (ctx_.config.solver.gradient == GradientMode::numeric) return numeric_gradient(s);
-  const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  const double dt = ctx_.dt(), m = mesh.mass[s];
   const Eigen::Vector3d xs = x(s);
-  Eigen::Vector3d g = m / (dt * dt) * (xs - vec3(st.target, s)) - m * ctx_.config.time.gravity +
-                      contact_penalty(ctx_, s, xs).gradient;
-  g += gather_elastic(
-      mesh, s, x, [&](std::int64_t id) { return edge_term(ctx_, id, x).force_density; },
-      [&](std::int64_t id) {
-        const TripleTerm t = triple_term(ctx_, id, x);
-        return Eigen::Vector3d(t.coefficient[0], t.coefficient[1], t.coefficient[2]);
-      });
-  if (ctx_.is_forced(s)) g -= ctx_.external_force(s);
+  Eigen::Vector3d g =
+      own_gradient(s, xs, contact_penalty(ctx_, s, xs)) +
+      gather_elastic(
+          ctx_.mesh, s, x, [&](std::int64_t id) { return edge_term(ctx_, id, x).force_density; },
+          [&](std::int64_t id) {
+            const TripleTerm t = triple_term(ctx_, id, x);
+            return Eigen::Vector3d(t.coefficient[0], t.coefficient[1], t.coefficient[2]);
+          });
+  if (ctx_.is_forced(s)) g -= ctx_.external_force(s);  // as evaluate subtracts it
   return g;
 }
 

@@ -168,8 +168,7 @@ kernels::SimulationConfig graded_config() {
   return c;
 }
 
-/// Coarse cells beside fine ones (ghosts on the shared sides), then a random state of `seed`
-/// and the model assembled there.
+/// Coarse cells beside fine ones (ghosts on the shared sides), then a random state of `seed`.
 void grade_and_randomise(ModelFixture& f, unsigned seed) {
   kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
   ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
@@ -177,7 +176,6 @@ void grade_and_randomise(ModelFixture& f, unsigned seed) {
   f.sim.end_tree_edit();
   ASSERT_GT(f.sim.mesh().ghost_count(), 0);
   testing::randomise_state(f.sim, seed);
-  f.assemble();
 }
 
 TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
@@ -186,6 +184,7 @@ TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
     ModelFixture f(c);
     grade_and_randomise(f, seed);
     if (HasFatalFailure()) return;
+    f.assemble();
     for (unsigned k = 0; k < 4; ++k) {
       const std::vector<double> x = random_free_vector(f.sim, 10 * seed + k);
       const std::vector<double> y = random_free_vector(f.sim, 100 * seed + k);
@@ -200,19 +199,11 @@ TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
 TEST(ModelHessian, ItsSparseMatrixEqualsTheMatrixFreeProductWithGhostsAndPins) {
   // The explicit matrix (the multigrid's fine operator) against apply(), on graded meshes with
   // ghosts, random states (edges on every branch, bent triples) and a pinned corner.
-  kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
-  c.cloth.particles_i = 9;
-  c.cloth.particles_j = 9;
-  c.amrc.enabled = true;
-  c.amrc.levels = 2;
+  const kernels::SimulationConfig c = graded_config();
   for (unsigned seed : {4u, 5u}) {
     ModelFixture f(c);
-    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
-    f.sim.end_tree_edit();
-    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
-    testing::randomise_state(f.sim, seed);
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
     for (double& m : f.sim.state().triple_moment) m = 2.0 * f.sim.material().bending[0].hb;
     f.assemble();
     std::int64_t unknowns = 0;
@@ -273,6 +264,7 @@ TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFall
     ModelFixture f(c);
     grade_and_randomise(f, seed);
     if (HasFatalFailure()) return;
+    f.assemble();
     kernels::Evaluation before, after;
     std::int64_t moved = 0;
     f.run([&](kernels::LoopRunner& r) {
