@@ -53,9 +53,16 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   // The colouring follows the active set (AMRC) and the pins (scripted events); without either
   // it is made once.
   const bool mesh_may_change = ctx_.config.amrc.enabled || !ctx_.config.events.empty();
-  if (newton_ != nullptr && effective_smoothing_sweeps(ctx_.config.solver) > 0 &&
-      (mesh_may_change || smoothing_colour_.empty())) {
-    colour_for_smoothing(run);
+  if (newton_ != nullptr && effective_smoothing_sweeps(ctx_.config.solver) > 0) {
+    if (mesh_may_change) {
+      colour_for_smoothing(run);
+    } else {
+      // Every thread must take the same branch: all of them read the (shared) colouring
+      // before the single inside colour_for_smoothing may fill it.
+      const bool first = smoothing_colour_.empty();
+#pragma omp barrier
+      if (first) colour_for_smoothing(run);
+    }
   }
   refresh_preconditioner(run);
 }
