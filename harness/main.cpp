@@ -109,8 +109,9 @@ int main(int argc, char** argv) {
       run_command
           ->add_option("--preconditioner", preconditioner,
                        "Override the preconditioner: none, block-jacobi, line-solves "
-                       "(block-tridiagonal solves along the grid lines) or multigrid (line "
-                       "solves and a coarse grid; Newton only)")
+                       "(block-tridiagonal solves along the grid lines), multigrid (line "
+                       "solves and a coarse grid; Newton only) or v-cycle (a V-cycle on the "
+                       "AMRC tree with line Gauss-Seidel; Newton only)")
           ->check(CLI::IsMember(clothbench::kernels::preconditioner_names()));
   run_command->add_option("--out", run.output_dir, "Output directory for VTK and JSON")
       ->capture_default_str();

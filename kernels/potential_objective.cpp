@@ -34,6 +34,14 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
     }
     multigrid_ = std::make_unique<MultigridPreconditioner>();
   }
+  if (kind == Preconditioner::vcycle) {
+    if (newton_ == nullptr) {
+      throw std::invalid_argument(
+          "the v-cycle preconditioner needs method = \"newton\" (kernels::validate)");
+    }
+    vcycle_ = std::make_unique<VcyclePreconditioner>();
+    vcycle_->set_coarsest_nodes(ctx.config.solver.coarsest_nodes);
+  }
 }
 
 PotentialObjective::~PotentialObjective() = default;

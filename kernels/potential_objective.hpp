@@ -10,6 +10,7 @@
 
 #include "kernels/line_preconditioner.hpp"
 #include "kernels/multigrid_preconditioner.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/step_objective.hpp"
@@ -32,7 +33,8 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] std::size_t memory_bytes() const override {
     return (lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double)) +
            (newton_ == nullptr ? 0 : newton_->memory_bytes()) +
-           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes());
+           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes()) +
+           (vcycle_ == nullptr ? 0 : vcycle_->memory_bytes());
   }
 
   // --- Newton (StepMethod::newton; potential_newton.cpp) ---------------------------------
@@ -53,6 +55,8 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
   /// The multigrid preconditioner, or null (tests).
   [[nodiscard]] MultigridPreconditioner* multigrid() { return multigrid_.get(); }
+  /// The V-cycle preconditioner, or null (tests).
+  [[nodiscard]] VcyclePreconditioner* vcycle() { return vcycle_.get(); }
 
   /// Colours the free particles for `smooth` (every thread calls it; one colours, greedy in
   /// slot order, so that no element touches two particles of one colour); again after every
@@ -97,6 +101,7 @@ class PotentialObjective final : public StepObjective {
   std::vector<double> line_z_;  ///< 3 per slot: P^-1 g at the current point (line solves)
   std::unique_ptr<NewtonSystem> newton_;
   std::unique_ptr<MultigridPreconditioner> multigrid_;  ///< Newton with preconditioner = multigrid
+  std::unique_ptr<VcyclePreconditioner> vcycle_;        ///< Newton with preconditioner = v-cycle
   /// Nonlinear smoothing: each free slot's colour (-1 otherwise), the slots of each colour in
   /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call).
   std::vector<int> smoothing_colour_;

@@ -12,6 +12,7 @@
 
 #include "kernels/line_preconditioner.hpp"
 #include "kernels/multigrid_preconditioner.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 #include "kernels/newton_minimiser.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/potential_objective.hpp"
@@ -416,9 +417,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
       kind == Preconditioner::multigrid
           ? n * (MultigridPreconditioner::kBytesPerSlot + (2 * 4 + 2 * 9) * 9 * 16 + 3 * 27 * 12)
           : 0;
+  const std::size_t vcycle = kind == Preconditioner::vcycle ? n * VcyclePreconditioner::kBytesPerSlot : 0;
   const std::size_t newton =
       config.solver.method == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
-  return n * per_slot + lines + multigrid + newton + (16u << 20);
+  return n * per_slot + lines + multigrid + vcycle + newton + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -37,10 +38,11 @@ enum class Preconditioner {
   block_jacobi,  ///< per-particle 3x3 blocks of the model stiffness
   line_solves,   ///< block-tridiagonal solves along the grid lines (potential formulation)
   multigrid,     ///< line-solve smoothing and a Galerkin coarse grid (Newton's inner PCG only)
+  vcycle,        ///< V-cycle on the AMRC tree, line Gauss-Seidel smoother (Newton's inner PCG only)
 };
 
 /// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
-/// "line-solves", "multigrid"), used by scene files, the CLI and every output; from_string returns nullopt
+/// "line-solves", "multigrid", "v-cycle"), used by scene files, the CLI and every output; from_string returns nullopt
 /// for any other text.
 const char* to_string(Formulation formulation);
 const char* to_string(GradientMode gradient);
@@ -135,6 +137,8 @@ struct SolverConfig {
   /// from which a particle is relaxed.
   int smoothing_sweeps = -1;
   double smoothing_threshold = 1.0;
+  /// V-cycle: a level with at most this many nodes is solved directly (sparse LDL^T).
+  std::int64_t coarsest_nodes = 600;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
   /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.

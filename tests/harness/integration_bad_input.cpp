@@ -204,6 +204,15 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWh
   ASSERT_EQ(multigrid.exit_code, 0) << multigrid.output;
   EXPECT_THAT(multigrid.output, HasSubstr("method newton, preconditioner multigrid\n"));
   EXPECT_THAT(multigrid.output, HasSubstr("\nVerification: PASSED"));
+  const Outcome no_vcycle = run(common + " --preconditioner v-cycle");
+  EXPECT_EQ(no_vcycle.exit_code, 2) << no_vcycle.output;
+  EXPECT_THAT(no_vcycle.output,
+              HasSubstr("solver.preconditioner: the v-cycle preconditioner preconditions "
+                        "Newton's inner linear PCG"));
+  const Outcome vcycle = run(common + " --method newton --preconditioner v-cycle");
+  ASSERT_EQ(vcycle.exit_code, 0) << vcycle.output;
+  EXPECT_THAT(vcycle.output, HasSubstr("method newton, preconditioner v-cycle\n"));
+  EXPECT_THAT(vcycle.output, HasSubstr("\nVerification: PASSED"));
 }
 
 TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {

@@ -10,6 +10,7 @@
 
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 
 namespace {
 
@@ -308,8 +309,9 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   EXPECT_EQ(defaults.method, StepMethod::nonlinear_cg);
   EXPECT_EQ(defaults.preconditioner, Preconditioner::block_jacobi);
   for (const std::string& name : clothbench::kernels::preconditioner_names()) {
-    // The multigrid preconditions Newton's inner PCG only.
-    const std::string method = name == "multigrid" ? "method = \"newton\"\n" : "";
+    // The multigrids precondition Newton's inner PCG only.
+    const std::string method =
+        name == "multigrid" || name == "v-cycle" ? "method = \"newton\"\n" : "";
     const std::string text =
         "[cloth]\nparticles = [9, 9]\n[solver]\n" + method + "preconditioner = \"" + name + "\"\n";
     const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
@@ -325,11 +327,15 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   }
   const kernels::SolverConfig smoothing =
       parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"newton\"\n"
-                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\n",
+                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\n"
+                  "preconditioner = \"v-cycle\"\ncoarsest_nodes = 40\n",
                   "solver.toml", kPresets)
           .simulation.solver;
   EXPECT_EQ(smoothing.smoothing_sweeps, 4);
   EXPECT_EQ(smoothing.smoothing_threshold, 0.5);
+  EXPECT_EQ(smoothing.preconditioner, kernels::Preconditioner::vcycle);
+  EXPECT_EQ(smoothing.coarsest_nodes, 40);
+  EXPECT_EQ(kernels::SolverConfig{}.coarsest_nodes, kernels::VcyclePreconditioner::kCoarsestNodes);
 }
 
 TEST(SceneLoader, OldPreconditionerBooleansAreRefusedWithWhatToWrite) {

@@ -28,6 +28,7 @@ struct Case {
   bool newton = false;       ///< Newton with linear PCG instead of nonlinear CG
   bool multigrid = false;    ///< Newton's PCG preconditioned by the multigrid
   bool smoothing = false;    ///< Newton with nonlinear block Gauss-Seidel after each line search
+  bool vcycle = false;       ///< Newton's PCG preconditioned by the V-cycle
 };
 
 /// Events on every one of the four steps: a pull (on a particle AMRC may have coarsened away
@@ -78,6 +79,12 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.solver.tolerance = 1e-6;
   if (test_case.line_solves) c.solver.preconditioner = kernels::Preconditioner::line_solves;
   if (test_case.multigrid) c.solver.preconditioner = kernels::Preconditioner::multigrid;
+  if (test_case.vcycle) {
+    // Three levels or more on these small meshes: the line sweeps of every level and the
+    // coarsest solve all run.
+    c.solver.preconditioner = kernels::Preconditioner::vcycle;
+    c.solver.coarsest_nodes = 30;
+  }
   if (test_case.newton) {
     c.solver.method = kernels::StepMethod::newton;
     c.solver.max_newton_iterations = 6;
@@ -194,7 +201,9 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, false, false, false, true, true},
                                            Case{kernels::Formulation::potential, true, true, false, true, true},
                                            Case{kernels::Formulation::potential, false, false, true, true, false, true},
-                                           Case{kernels::Formulation::potential, true, true, true, true, false, true}),
+                                           Case{kernels::Formulation::potential, true, true, true, true, false, true},
+                                           Case{kernels::Formulation::potential, false, false, false, true, false, true, true},
+                                           Case{kernels::Formulation::potential, true, true, false, true, false, true, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
@@ -204,6 +213,7 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                            if (info.param.line_solves) name += "_lines";
                            if (info.param.multigrid) name += "_multigrid";
                            if (info.param.smoothing) name += "_smoothing";
+                           if (info.param.vcycle) name += "_vcycle";
                            return info.param.newton ? name + "_newton" : name;
                          });
 
