@@ -48,10 +48,30 @@ std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* co
 Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
                                                  const std::vector<std::int64_t>& unknown_of_slot,
                                                  std::int64_t unknowns) const {
+  std::vector<UnknownBlock> blocks;
+  unknown_blocks(ctx, unknown_of_slot, blocks);
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(9 * blocks.size());
+  for (const UnknownBlock& b : blocks) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) {
+        const double value = b.block[3 * r + c];
+        if (value != 0.0) triplets.emplace_back(3 * b.row + r, 3 * b.col + c, value);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> m(3 * unknowns, 3 * unknowns);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+void ModelHessian::unknown_blocks(const StepContext& ctx,
+                                  const std::vector<std::int64_t>& unknown_of_slot,
+                                  std::vector<UnknownBlock>& out) const {
   const ClothMesh& mesh = ctx.mesh;
   const ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  std::vector<Eigen::Triplet<double>> triplets;
+  out.clear();
   std::vector<std::pair<std::int64_t, double>> rows, cols;
   // Block B between nodes r and s, expanded to the unknowns on both sides.
   auto add = [&](std::int64_t r, std::int64_t s, const Eigen::Matrix3d& block) {
@@ -61,11 +81,11 @@ Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
     expand(mesh, unknown_of_slot, s, 1.0, cols);
     for (const auto& [i, wi] : rows) {
       for (const auto& [j, wj] : cols) {
+        UnknownBlock& b = out.emplace_back();
+        b.row = i;
+        b.col = j;
         for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) {
-            const double value = wi * wj * block(a, b);
-            if (value != 0.0) triplets.emplace_back(3 * i + a, 3 * j + b, value);
-          }
+          for (int c = 0; c < 3; ++c) b.block[3 * a + c] = wi * wj * block(a, c);
         }
       }
     }
@@ -107,9 +127,6 @@ Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
       }
     }
   }
-  Eigen::SparseMatrix<double> m(3 * unknowns, 3 * unknowns);
-  m.setFromTriplets(triplets.begin(), triplets.end());
-  return m;
 }
 
 }  // namespace clothbench::kernels

@@ -1,6 +1,8 @@
 // Multigrid V-cycle preconditioner of Newton's inner PCG (see vcycle_preconditioner.hpp).
 #include "kernels/vcycle_preconditioner.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -42,7 +44,8 @@ bool band_cholesky(double* band, std::int64_t n, int w) {
     for (std::int64_t c = first; c <= r; ++c) {
       double sum = band[r * row + c - r + w];
       const std::int64_t from = std::max(first, c - w);
-      for (std::int64_t k = from; k < c; ++k) sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
+      for (std::int64_t k = from; k < c; ++k)
+        sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
       if (c == r) {
         if (!(sum > 0.0) || !std::isfinite(sum)) return false;
         band[r * row + w] = std::sqrt(sum);
@@ -59,7 +62,8 @@ void band_solve(const double* band, std::int64_t n, int w, double* x) {
   const std::int64_t row = w + 1;
   for (std::int64_t r = 0; r < n; ++r) {
     double sum = x[r];
-    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k) sum -= band[r * row + k - r + w] * x[k];
+    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k)
+      sum -= band[r * row + k - r + w] * x[k];
     x[r] = sum / band[r * row + w];
   }
   for (std::int64_t r = n - 1; r >= 0; --r) {
@@ -72,8 +76,8 @@ void band_solve(const double* band, std::int64_t n, int w, double* x) {
 
 }  // namespace
 
-VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(
-    const StepContext& ctx, int k, int s, std::vector<std::int64_t>& node_at) {
+VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext& ctx, int k, int s,
+                                                               std::vector<std::int64_t>& node_at) {
   const ClothMesh& mesh = ctx.mesh;
   const int ni = mesh.size_i(), nj = mesh.size_j();
   Level& fine = levels_[static_cast<std::size_t>(k)];
@@ -137,31 +141,96 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(
     }
   }
   const std::int64_t m = static_cast<std::int64_t>(next.i.size());
-  for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = -1;
-  if (m == 0) return Coarsening::coarsest;
-  if (5 * m > 4 * n) return Coarsening::too_few;  // try the next lattice from this level
-  // The corners of an interpolated node are lattice nodes, hence coarse nodes.
-  for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = a;
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(static_cast<std::size_t>(3 * n * 2));
+  auto clear = [&] {
+    for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = -1;
+  };
+  if (m == 0) {
+    clear();
+    return Coarsening::coarsest;
+  }
+  if (5 * m > 4 * n) {  // try the next lattice from this level
+    clear();
+    return Coarsening::too_few;
+  }
+  // P by fine node (the corners of an interpolated node are lattice nodes, hence coarse
+  // nodes), then P^T by coarse node in fine node order.
+  Weights& p = fine.p;
+  p.start.assign(1, 0);
+  p.node.clear();
+  p.weight.clear();
   for (std::int64_t a = 0; a < n; ++a) {
     if (coarse[a] >= 0) {
-      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * a + c, 3 * coarse[a] + c, 1.0);
-      continue;
+      p.node.push_back(coarse[a]);
+      p.weight.push_back(1.0);
+    } else {
+      corners(a);
+      for (const auto& [b, w] : list) {
+        p.node.push_back(coarse[b]);
+        p.weight.push_back(w);
+      }
     }
-    corners(a);
-    for (const auto& [b, w] : list) {
-      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * a + c, 3 * coarse[b] + c, w);
+    p.start.push_back(static_cast<std::int64_t>(p.node.size()));
+  }
+  clear();
+  Weights& r = fine.r;
+  r.start.assign(static_cast<std::size_t>(m) + 1, 0);
+  for (const std::int64_t c : p.node) ++r.start[c + 1];
+  for (std::int64_t c = 0; c < m; ++c) r.start[c + 1] += r.start[c];
+  r.node.assign(p.node.size(), 0);
+  r.weight.assign(p.node.size(), 0.0);
+  std::vector<std::int64_t> fill(r.start.begin(), r.start.end() - 1);
+  for (std::int64_t a = 0; a < n; ++a) {
+    for (std::int64_t e = p.start[a]; e < p.start[a + 1]; ++e) {
+      const std::int64_t at = fill[p.node[e]]++;
+      r.node[at] = a;
+      r.weight[at] = p.weight[e];
     }
   }
-  for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = -1;
-  fine.p.resize(3 * n, 3 * m);
-  fine.p.setFromTriplets(triplets.begin(), triplets.end());
-  fine.r = fine.p.transpose();
-  const RowMatrix ap = fine.a * fine.p;
-  next.a = fine.r * ap;
   levels_.push_back(std::move(next));
   return Coarsening::level;
+}
+
+void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc) {
+  const Level& fine = levels_[k];
+  const BlockRows& a = fine.a;
+  acc.cols.clear();
+  acc.values.clear();
+  for (std::int64_t e = fine.r.start[row]; e < fine.r.start[row + 1]; ++e) {
+    const std::int64_t i = fine.r.node[e];
+    const double wi = fine.r.weight[e];
+    for (std::int64_t blk = a.start[i]; blk < a.start[i + 1]; ++blk) {
+      const std::int64_t j = a.col[blk];
+      const double* block = a.value.data() + 9 * blk;
+      for (std::int64_t f = fine.p.start[j]; f < fine.p.start[j + 1]; ++f) {
+        const std::int64_t c = fine.p.node[f];
+        const double w = wi * fine.p.weight[f];
+        std::int64_t at = acc.slot_of[c];
+        if (at < 0) {
+          at = static_cast<std::int64_t>(acc.cols.size());
+          acc.slot_of[c] = at;
+          acc.cols.push_back(c);
+          acc.values.resize(acc.values.size() + 9, 0.0);
+        }
+        double* out = acc.values.data() + 9 * at;
+        for (int q = 0; q < 9; ++q) out[q] += w * block[q];
+      }
+    }
+  }
+  const std::size_t count = acc.cols.size();
+  acc.order.resize(count);
+  std::iota(acc.order.begin(), acc.order.end(), 0);
+  std::sort(acc.order.begin(), acc.order.end(),
+            [&](std::int64_t x, std::int64_t y) { return acc.cols[x] < acc.cols[y]; });
+  std::vector<std::int64_t>& cols = row_cols_[static_cast<std::size_t>(row)];
+  std::vector<double>& values = row_values_[static_cast<std::size_t>(row)];
+  cols.resize(count);
+  values.resize(9 * count);
+  for (std::size_t e = 0; e < count; ++e) {
+    const std::int64_t from = acc.order[e];
+    cols[e] = acc.cols[from];
+    std::copy_n(acc.values.data() + 9 * from, 9, values.data() + 9 * e);
+  }
+  for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
 }
 
 void VcyclePreconditioner::build_lines(Level& level, int d) {
@@ -170,10 +239,9 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
   // Direction 0: lines of constant j along i; direction 1: constant i along j.
   const std::vector<int>& key = d == 0 ? level.j : level.i;
   const std::vector<int>& along = d == 0 ? level.i : level.j;
-  // Counting sort by (key, along): nodes are in slot or coarsening order, not grid order.
   l.order.resize(static_cast<std::size_t>(n));
   std::iota(l.order.begin(), l.order.end(), 0);
-  std::stable_sort(l.order.begin(), l.order.end(), [&](std::int64_t a, std::int64_t b) {
+  std::sort(l.order.begin(), l.order.end(), [&](std::int64_t a, std::int64_t b) {
     return key[a] != key[b] ? key[a] < key[b] : along[a] < along[b];
   });
   l.start.clear();
@@ -194,23 +262,20 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
   // Widths and couplings between lines; greedy colours in line order.
   l.width.assign(static_cast<std::size_t>(lines), 0);
   std::vector<int> colour(static_cast<std::size_t>(lines), -1);
+  std::vector<char> used;
   int colours = 0;
   for (std::int64_t line = 0; line < lines; ++line) {
-    std::vector<char> used(static_cast<std::size_t>(colours) + 1, 0);
-    int width = 0;
+    used.assign(static_cast<std::size_t>(colours) + 1, 0);
+    std::int64_t width = 2;
     for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
       const std::int64_t a = l.order[e];
-      for (int c = 0; c < 3; ++c) {
-        for (RowMatrix::InnerIterator it(level.a, 3 * a + c); it; ++it) {
-          const std::int64_t b = it.col() / 3;
-          const std::int64_t other = l.line_of[b];
-          if (other == line) {
-            const std::int64_t dist =
-                std::abs(3 * (l.position[a] - l.position[b]) + c - static_cast<std::int64_t>(it.col() % 3));
-            width = std::max(width, static_cast<int>(dist));
-          } else if (colour[other] >= 0) {
-            used[colour[other]] = 1;
-          }
+      for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
+        const std::int64_t b = level.a.col[blk];
+        const std::int64_t other = l.line_of[b];
+        if (other == line) {
+          width = std::max(width, 3 * std::abs(l.position[a] - l.position[b]) + 2);
+        } else if (colour[other] >= 0) {
+          used[colour[other]] = 1;
         }
       }
     }
@@ -218,7 +283,7 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
     while (pick < colours && used[pick] != 0) ++pick;
     colour[line] = pick;
     colours = std::max(colours, pick + 1);
-    l.width[line] = width;
+    l.width[line] = static_cast<int>(width);
   }
   l.colour_start.assign(static_cast<std::size_t>(colours) + 1, 0);
   for (std::int64_t line = 0; line < lines; ++line) ++l.colour_start[colour[line] + 1];
@@ -243,18 +308,44 @@ void VcyclePreconditioner::factor_line(Level& level, int d, std::int64_t line) {
   std::fill(band, band + rows * (w + 1), 0.0);
   for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
     const std::int64_t a = l.order[e];
-    for (int c = 0; c < 3; ++c) {
-      const std::int64_t lr = 3 * l.position[a] + c;
-      for (RowMatrix::InnerIterator it(level.a, 3 * a + c); it; ++it) {
-        const std::int64_t b = it.col() / 3;
-        if (l.line_of[b] != line) continue;
-        const std::int64_t lc = 3 * l.position[b] + it.col() % 3;
-        if (lc <= lr) band[lr * (w + 1) + lc - lr + w] += it.value();
+    const std::int64_t pa = l.position[a];
+    for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
+      const std::int64_t b = level.a.col[blk];
+      if (l.line_of[b] != line) continue;
+      const std::int64_t pb = l.position[b];
+      if (pb > pa) continue;
+      const double* block = level.a.value.data() + 9 * blk;
+      for (int r = 0; r < 3; ++r) {
+        const std::int64_t lr = 3 * pa + r;
+        for (int c = 0; c < 3; ++c) {
+          const std::int64_t lc = 3 * pb + c;
+          if (lc <= lr) band[lr * (w + 1) + lc - lr + w] += block[3 * r + c];
+        }
       }
     }
   }
   l.ok[line] = band_cholesky(band, rows, w) ? 1 : 0;
 }
+
+namespace {
+
+/// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
+inline void block_residual(const std::int64_t* start, const std::int64_t* col, const double* value,
+                           std::int64_t a, const double* x, const double* b, double* out) {
+  double r0 = b[3 * a], r1 = b[3 * a + 1], r2 = b[3 * a + 2];
+  for (std::int64_t blk = start[a]; blk < start[a + 1]; ++blk) {
+    const double* m = value + 9 * blk;
+    const double* xb = x + 3 * col[blk];
+    r0 -= m[0] * xb[0] + m[1] * xb[1] + m[2] * xb[2];
+    r1 -= m[3] * xb[0] + m[4] * xb[1] + m[5] * xb[2];
+    r2 -= m[6] * xb[0] + m[7] * xb[1] + m[8] * xb[2];
+  }
+  out[0] = r0;
+  out[1] = r1;
+  out[2] = r2;
+}
+
+}  // namespace
 
 void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
   Lines& l = level.lines[d];
@@ -262,20 +353,15 @@ void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
   const std::int64_t first = l.start[line];
   const std::int64_t rows = 3 * (l.start[line + 1] - first);
   double* rhs = level.scratch.data() + 3 * first;
+  const BlockRows& a = level.a;
   for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
-    const std::int64_t a = l.order[e];
-    for (int c = 0; c < 3; ++c) {
-      double sum = level.b[3 * a + c];
-      for (RowMatrix::InnerIterator it(level.a, 3 * a + c); it; ++it) {
-        sum -= it.value() * level.x[it.col()];
-      }
-      rhs[3 * (e - first) + c] = sum;
-    }
+    block_residual(a.start.data(), a.col.data(), a.value.data(), l.order[e], level.x.data(),
+                   level.b.data(), rhs + 3 * (e - first));
   }
   band_solve(l.band.data() + l.band_start[line], rows, l.width[line], rhs);
   for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
-    const std::int64_t a = l.order[e];
-    for (int c = 0; c < 3; ++c) level.x[3 * a + c] += rhs[3 * (e - first) + c];
+    const std::int64_t node = l.order[e];
+    for (int c = 0; c < 3; ++c) level.x[3 * node + c] += rhs[3 * (e - first) + c];
   }
 }
 
@@ -301,39 +387,49 @@ void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
 
 void VcyclePreconditioner::cycle(LoopRunner& run, std::size_t k) {
   Level& level = levels_[k];
-  const std::int64_t rows = static_cast<std::int64_t>(level.x.size());
+  const std::int64_t nodes = static_cast<std::int64_t>(level.i.size());
   if (k + 1 == levels_.size()) {
     // The coarsest level: a direct solve on one thread.
 #pragma omp single
     {
       if (direct_ready_) {
-        coarse_b_ = Eigen::Map<const Eigen::VectorXd>(level.b.data(), rows);
+        coarse_b_ = Eigen::Map<const Eigen::VectorXd>(level.b.data(), 3 * nodes);
         coarse_x_ = direct_.solve(coarse_b_);
-        std::copy(coarse_x_.data(), coarse_x_.data() + rows, level.x.begin());
+        std::copy(coarse_x_.data(), coarse_x_.data() + 3 * nodes, level.x.begin());
       } else {
         std::fill(level.x.begin(), level.x.end(), 0.0);
       }
     }
     return;
   }
-  run.for_index(rows, [&](std::int64_t row) { level.x[row] = 0.0; });
+  run.for_index(nodes, [&](std::int64_t a) {
+    for (int c = 0; c < 3; ++c) level.x[3 * a + c] = 0.0;
+  });
   smooth(run, level, true);
-  run.for_index(rows, [&](std::int64_t row) {
-    double sum = level.b[row];
-    for (RowMatrix::InnerIterator it(level.a, row); it; ++it) sum -= it.value() * level.x[it.col()];
-    level.res[row] = sum;
+  const BlockRows& a = level.a;
+  run.for_index(nodes, [&](std::int64_t node) {
+    block_residual(a.start.data(), a.col.data(), a.value.data(), node, level.x.data(),
+                   level.b.data(), level.res.data() + 3 * node);
   });
   Level& coarse = levels_[k + 1];
-  run.for_index(level.r.rows(), [&](std::int64_t row) {
-    double sum = 0.0;
-    for (RowMatrix::InnerIterator it(level.r, row); it; ++it) sum += it.value() * level.res[it.col()];
-    coarse.b[row] = sum;
+  run.for_index(static_cast<std::int64_t>(coarse.i.size()), [&](std::int64_t c) {
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (std::int64_t e = level.r.start[c]; e < level.r.start[c + 1]; ++e) {
+      const double w = level.r.weight[e];
+      const double* res = level.res.data() + 3 * level.r.node[e];
+      for (int q = 0; q < 3; ++q) sum[q] += w * res[q];
+    }
+    for (int q = 0; q < 3; ++q) coarse.b[3 * c + q] = sum[q];
   });
   cycle(run, k + 1);
-  run.for_index(rows, [&](std::int64_t row) {
-    double sum = 0.0;
-    for (RowMatrix::InnerIterator it(level.p, row); it; ++it) sum += it.value() * coarse.x[it.col()];
-    level.x[row] += sum;
+  run.for_index(nodes, [&](std::int64_t node) {
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (std::int64_t e = level.p.start[node]; e < level.p.start[node + 1]; ++e) {
+      const double w = level.p.weight[e];
+      const double* xc = coarse.x.data() + 3 * level.p.node[e];
+      for (int q = 0; q < 3; ++q) sum[q] += w * xc[q];
+    }
+    for (int q = 0; q < 3; ++q) level.x[3 * node + q] += sum[q];
   });
   smooth(run, level, false);
 }
@@ -357,43 +453,104 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
       fine.i[unknown[s]] = mesh.grid_i(s);
       fine.j[unknown[s]] = mesh.grid_j(s);
     }
+    // Level 0's rows: the model's blocks by row in assembly order, then per row by column
+    // with duplicates summed in that order.
+    hessian.unknown_blocks(ctx, unknown, blocks_);
+    BlockRows& a = fine.a;
+    std::vector<std::int64_t> at(static_cast<std::size_t>(count) + 1, 0);
+    for (const auto& blk : blocks_) ++at[blk.row + 1];
+    for (std::int64_t r = 0; r < count; ++r) at[r + 1] += at[r];
+    std::vector<std::int64_t> placed(blocks_.size());
     {
-      // The model is symmetric: its compressed columns are its compressed rows.
-      const Eigen::SparseMatrix<double> a = hessian.matrix(ctx, unknown, count);
-      fine.a = Eigen::Map<const RowMatrix>(a.rows(), a.cols(), a.nonZeros(), a.outerIndexPtr(),
-                                           a.innerIndexPtr(), a.valuePtr());
+      std::vector<std::int64_t> fill(at.begin(), at.end() - 1);
+      for (std::size_t e = 0; e < blocks_.size(); ++e)
+        placed[fill[blocks_[e].row]++] = static_cast<std::int64_t>(e);
+    }
+    a.start.assign(1, 0);
+    a.col.clear();
+    a.value.clear();
+    a.col.reserve(blocks_.size() / 2);
+    a.value.reserve(9 * (blocks_.size() / 2));
+    for (std::int64_t r = 0; r < count; ++r) {
+      auto first = placed.begin() + at[r], last = placed.begin() + at[r + 1];
+      std::stable_sort(first, last, [&](std::int64_t x, std::int64_t y) {
+        return blocks_[x].col < blocks_[y].col;
+      });
+      for (auto it = first; it != last; ++it) {
+        const auto& blk = blocks_[*it];
+        if (a.col.size() > static_cast<std::size_t>(a.start.back()) && a.col.back() == blk.col) {
+          double* out = a.value.data() + a.value.size() - 9;
+          for (int q = 0; q < 9; ++q) out[q] += blk.block[q];
+        } else {
+          a.col.push_back(blk.col);
+          a.value.insert(a.value.end(), blk.block, blk.block + 9);
+        }
+      }
+      a.start.push_back(static_cast<std::int64_t>(a.col.size()));
     }
     levels_.push_back(std::move(fine));
-    std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
     // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
     // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
     // tried from the same level.
+    std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
     int k = 0;
     for (int s = 2;; s *= 2) {
       const Coarsening made = coarsen(ctx, k, s, node_at);
       if (made == Coarsening::coarsest) break;
       if (made == Coarsening::level) ++k;
     }
-    for (std::size_t k = 0; k < levels_.size(); ++k) {
-      Level& level = levels_[k];
+    std::size_t widest = 0;
+    for (std::size_t l = 0; l < levels_.size(); ++l) {
+      Level& level = levels_[l];
       const std::size_t rows = 3 * level.i.size();
       level.x.assign(rows, 0.0);
       level.b.assign(rows, 0.0);
       level.res.assign(rows, 0.0);
       level.scratch.assign(rows, 0.0);
-      if (k + 1 < levels_.size()) {
-        for (int d = 0; d < 2; ++d) build_lines(level, d);
+      if (l > 0) widest = std::max(widest, level.i.size());
+    }
+    const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
+    accumulators_.resize(static_cast<std::size_t>(threads));
+    for (Accumulator& acc : accumulators_) acc.slot_of.assign(widest, -1);
+  }  // the single's barrier publishes the levels
+  // The Galerkin products level by level, each coarse row on its own.
+  for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+    const std::int64_t rows = static_cast<std::int64_t>(levels_[k + 1].i.size());
+#pragma omp single
+    {
+      row_cols_.resize(static_cast<std::size_t>(rows));
+      row_values_.resize(static_cast<std::size_t>(rows));
+    }
+    run.for_index(rows, [&](std::int64_t row) {
+      galerkin_row(k, row, accumulators_[static_cast<std::size_t>(omp_get_thread_num())]);
+    });
+#pragma omp single
+    {
+      BlockRows& a = levels_[k + 1].a;
+      a.start.assign(1, 0);
+      a.col.clear();
+      a.value.clear();
+      for (std::int64_t row = 0; row < rows; ++row) {
+        const auto& cols = row_cols_[static_cast<std::size_t>(row)];
+        const auto& values = row_values_[static_cast<std::size_t>(row)];
+        a.col.insert(a.col.end(), cols.begin(), cols.end());
+        a.value.insert(a.value.end(), values.begin(), values.end());
+        a.start.push_back(static_cast<std::int64_t>(a.col.size()));
       }
     }
-    const Level& last = levels_.back();
+  }
+#pragma omp single
+  {
+    for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+      for (int d = 0; d < 2; ++d) build_lines(levels_[k], d);
+    }
     direct_ready_ = false;
-    if (last.a.rows() > 0) {
-      const Eigen::SparseMatrix<double> coarsest = last.a;
-      direct_.compute(coarsest);
+    if (!levels_.back().i.empty()) {
+      direct_.compute(level_operator(static_cast<int>(levels_.size()) - 1));
       direct_ready_ = direct_.info() == Eigen::Success;
       if (!direct_ready_) ++failures_;
     }
-  }  // the single's barrier publishes the hierarchy
+  }
   // Every line of every smoothed level, one loop.
   std::vector<std::pair<std::size_t, std::int64_t>> all;  // (level * 2 + d, line)
   for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
@@ -435,15 +592,59 @@ void VcyclePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
   (void)ctx;
 }
 
+Eigen::SparseMatrix<double> VcyclePreconditioner::level_operator(int k) const {
+  const BlockRows& a = levels_[static_cast<std::size_t>(k)].a;
+  const std::int64_t n = static_cast<std::int64_t>(a.start.size()) - 1;
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(9 * a.col.size());
+  for (std::int64_t row = 0; row < n; ++row) {
+    for (std::int64_t blk = a.start[row]; blk < a.start[row + 1]; ++blk) {
+      for (int q = 0; q < 9; ++q) {
+        triplets.emplace_back(3 * row + q / 3, 3 * a.col[blk] + q % 3, a.value[9 * blk + q]);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> m(3 * n, 3 * n);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+Eigen::SparseMatrix<double> VcyclePreconditioner::prolongation(int k) const {
+  const Weights& p = levels_[static_cast<std::size_t>(k)].p;
+  const std::int64_t n = static_cast<std::int64_t>(p.start.size()) - 1;
+  const std::int64_t m =
+      static_cast<std::int64_t>(levels_[static_cast<std::size_t>(k) + 1].i.size());
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (std::int64_t a = 0; a < n; ++a) {
+    for (std::int64_t e = p.start[a]; e < p.start[a + 1]; ++e) {
+      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * a + c, 3 * p.node[e] + c, p.weight[e]);
+    }
+  }
+  Eigen::SparseMatrix<double> out(3 * n, 3 * m);
+  out.setFromTriplets(triplets.begin(), triplets.end());
+  return out;
+}
+
 std::size_t VcyclePreconditioner::memory_bytes() const {
-  auto sparse = [](const RowMatrix& m) {
-    return static_cast<std::size_t>(m.nonZeros()) * (sizeof(double) + sizeof(int)) +
-           static_cast<std::size_t>(m.outerSize() + 1) * sizeof(int);
-  };
-  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t);
+  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t) +
+                      blocks_.capacity() * sizeof(ModelHessian::UnknownBlock);
+  for (const Accumulator& acc : accumulators_) {
+    bytes += (acc.slot_of.capacity() + acc.cols.capacity() + acc.order.capacity()) *
+                 sizeof(std::int64_t) +
+             acc.values.capacity() * sizeof(double);
+  }
+  for (std::size_t e = 0; e < row_cols_.size(); ++e) {
+    bytes +=
+        row_cols_[e].capacity() * sizeof(std::int64_t) + row_values_[e].capacity() * sizeof(double);
+  }
   for (const Level& level : levels_) {
-    bytes += sparse(level.a) + sparse(level.p) + sparse(level.r) +
-             (level.i.capacity() + level.j.capacity()) * sizeof(int) +
+    bytes += (level.a.start.capacity() + level.a.col.capacity()) * sizeof(std::int64_t) +
+             level.a.value.capacity() * sizeof(double);
+    for (const Weights* w : {&level.p, &level.r}) {
+      bytes += (w->start.capacity() + w->node.capacity()) * sizeof(std::int64_t) +
+               w->weight.capacity() * sizeof(double);
+    }
+    bytes += (level.i.capacity() + level.j.capacity()) * sizeof(int) +
              (level.x.capacity() + level.b.capacity() + level.res.capacity() +
               level.scratch.capacity()) *
                  sizeof(double);

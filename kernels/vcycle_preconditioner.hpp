@@ -12,7 +12,8 @@
 // holds an identity row per coarse node and has full column rank. The coarse operators are
 // Galerkin products A_(k+1) = P_k^T A_k P_k, so they see the contact stiffness k n n^T that the
 // model holds for particles in contact. The hierarchy stops when a level has at most
-// kCoarsestNodes nodes (600) or nothing coarser exists; that level is solved directly (sparse LDL^T).
+// kCoarsestNodes nodes (600) or nothing coarser exists; that level is solved directly (sparse
+// LDL^T).
 //
 // Smoother. Alternating-direction line Gauss-Seidel: along each grid direction the nodes of a
 // level form lines, and a line update solves the level's operator restricted to the line
@@ -47,16 +48,14 @@ class VcyclePreconditioner {
   /// A level this small (nodes) is solved directly.
   static constexpr std::int64_t kCoarsestNodes = 600;
 
-  using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
-
   /// The size below which a level is solved directly (tests use small values to get several
   /// levels on small meshes); takes effect at the next factor().
   void set_coarsest_nodes(std::int64_t nodes) { coarsest_nodes_ = nodes; }
 
-  /// Builds the hierarchy for the current model (one thread: level 0's matrix, the
-  /// prolongations, the Galerkin products, the lines and their colours, the coarsest
-  /// factorisation), then factorises every line of every level in parallel. Every thread of
-  /// the region calls it.
+  /// Builds the hierarchy for the current model, then factorises every line of every level.
+  /// Level 0's blocks, the prolongations and the lines are made on one thread; the Galerkin
+  /// products (by coarse rows) and the line factorisations run through the LoopRunner. Every
+  /// thread of the region calls it.
   void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
   /// calls it; ends after a barrier.
@@ -79,26 +78,36 @@ class VcyclePreconditioner {
   [[nodiscard]] int colours(int k, int d) const {
     return static_cast<int>(levels_[static_cast<std::size_t>(k)].lines[d].colour_start.size()) - 1;
   }
-  /// Operator and prolongation of level k (tests; the prolongation maps level k+1 to k).
-  [[nodiscard]] const RowMatrix& level_operator(int k) const {
-    return levels_[static_cast<std::size_t>(k)].a;
-  }
-  [[nodiscard]] const RowMatrix& prolongation(int k) const {
-    return levels_[static_cast<std::size_t>(k)].p;
-  }
+  /// Operator of level k and the prolongation from level k+1 to k as scalar sparse matrices
+  /// (3 rows and columns per node; tests).
+  [[nodiscard]] Eigen::SparseMatrix<double> level_operator(int k) const;
+  [[nodiscard]] Eigen::SparseMatrix<double> prolongation(int k) const;
   [[nodiscard]] std::int64_t factorisations() const { return factorisations_; }
   /// Line or coarsest factorisations that found a non-positive pivot (the model was not SPD;
   /// the failing line or level is then left out of the cycle).
   [[nodiscard]] std::int64_t failures() const { return failures_; }
 
   [[nodiscard]] std::size_t memory_bytes() const;
-  /// Bytes per slot (memory estimates): level 0's matrix (3 rows of 27 entries with 8-byte
-  /// indices) and its assembly triplets, the line factors (two directions, 3 rows of 9 band
-  /// entries), four vectors, the coarser levels (about a third of level 0 together).
+  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 72 B + 8 B index) and
+  /// its assembly blocks (2 edges of 4 and 2 triples of 9, 88 B each), the line factors (two
+  /// directions, 3 rows of 9 band entries), four vectors, the coarser levels (about a third of
+  /// level 0 together).
   static constexpr std::size_t kBytesPerSlot =
-      (3 * 27 * 16 + (2 * 4 + 2 * 9) * 9 * 16 + 2 * 3 * 9 * 8 + 4 * 3 * 8) * 4 / 3;
+      (9 * 80 + (2 * 4 + 2 * 9) * 88 + 2 * 3 * 9 * 8 + 4 * 3 * 8) * 4 / 3;
 
  private:
+  /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
+  struct BlockRows {
+    std::vector<std::int64_t> start;  ///< per row: first block (+ end)
+    std::vector<std::int64_t> col;    ///< per block: its column node
+    std::vector<double> value;        ///< per block: 9 entries, row-major
+  };
+  /// Interpolation weights by node: per row the (node, weight) pairs it follows.
+  struct Weights {
+    std::vector<std::int64_t> start;
+    std::vector<std::int64_t> node;
+    std::vector<double> weight;
+  };
   /// Nodes of one grid direction's lines: node order by (line, position), line ranges,
   /// line colours, band factor offsets and widths.
   struct Lines {
@@ -114,19 +123,29 @@ class VcyclePreconditioner {
     std::vector<std::int64_t> position;      ///< per node: its position on the line
   };
   struct Level {
-    std::vector<int> i, j;     ///< grid coordinates of each node
-    RowMatrix a;               ///< 3n x 3n operator
-    RowMatrix p, r;            ///< prolongation to this level from the next, and P^T
+    std::vector<int> i, j;  ///< grid coordinates of each node
+    BlockRows a;            ///< the operator
+    Weights p;              ///< per node of this level: the next level's nodes it follows
+    Weights r;              ///< per node of the next level: this level's nodes (P^T)
     Lines lines[2];
-    std::vector<double> x, b, res, scratch;  ///< 3n each
+    std::vector<double> x, b, res, scratch;  ///< 3 per node each
+  };
+  /// Per thread: the Galerkin product's row accumulator.
+  struct Accumulator {
+    std::vector<std::int64_t> slot_of;  ///< per coarse node: its place in `cols`, or -1
+    std::vector<std::int64_t> cols;
+    std::vector<double> values;
+    std::vector<std::int64_t> order;
   };
 
   enum class Coarsening { level, too_few, coarsest };
   /// One thread: the nodes of level k on the lattice of spacing s (and those that cannot
-  /// follow it) as level k + 1, with level k's prolongation and the Galerkin product; too_few
-  /// when that would keep more than 4/5 of level k's nodes; coarsest when level k is small
-  /// enough or nothing coarser exists.
+  /// follow it) as level k + 1, with level k's prolongation; too_few when that would keep
+  /// more than 4/5 of level k's nodes; coarsest when level k is small enough or nothing
+  /// coarser exists.
   Coarsening coarsen(const StepContext& ctx, int k, int s, std::vector<std::int64_t>& node_at);
+  /// Row `row` of level k+1's operator P^T A P (one thread per row).
+  void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc);
   /// One thread: lines of a level along direction d, their colours and band widths.
   void build_lines(Level& level, int d);
   void factor_line(Level& level, int d, std::int64_t line);
@@ -135,7 +154,11 @@ class VcyclePreconditioner {
   void cycle(LoopRunner& run, std::size_t k);
 
   std::vector<Level> levels_;
-  std::vector<std::int64_t> slot_of_node_;  ///< level 0 node -> slot
+  std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
+  std::vector<ModelHessian::UnknownBlock> blocks_;   ///< level 0's assembly
+  std::vector<Accumulator> accumulators_;            ///< one per thread
+  std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin rows before concatenation
+  std::vector<std::vector<double>> row_values_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> direct_;
   bool direct_ready_ = false;
   Eigen::VectorXd coarse_b_, coarse_x_;
