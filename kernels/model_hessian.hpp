@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "kernels/loop_runner.hpp"
@@ -61,17 +62,15 @@ class ModelHessian {
                                                    const std::vector<std::int64_t>& unknown_of_slot,
                                                    std::int64_t unknowns) const;
 
-  /// One 3x3 block of the model between two unknowns (row-major), before duplicates are
-  /// summed.
-  struct UnknownBlock {
-    std::int64_t row, col;
-    double block[9];
-  };
+  /// Called with (row unknown, column unknown, 3x3 block row-major) for every block of the
+  /// model before duplicates are summed.
+  using BlockVisitor = std::function<void(std::int64_t, std::int64_t, const double*)>;
   /// The blocks matrix() sums, in the same order (inertia and contact per particle, then edge
-  /// and triple blocks by element id), each node expanded to its unknowns (the V-cycle's level
-  /// 0). Sequential.
-  void unknown_blocks(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
-                      std::vector<UnknownBlock>& out) const;
+  /// and triple blocks by element id), each node expanded to its unknowns (also the V-cycle's
+  /// level 0). Sequential.
+  void for_each_unknown_block(const StepContext& ctx,
+                              const std::vector<std::int64_t>& unknown_of_slot,
+                              const BlockVisitor& visit) const;
 
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;

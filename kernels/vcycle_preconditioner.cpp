@@ -453,41 +453,31 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
       fine.i[unknown[s]] = mesh.grid_i(s);
       fine.j[unknown[s]] = mesh.grid_j(s);
     }
-    // Level 0's rows: the model's blocks by row in assembly order, then per row by column
-    // with duplicates summed in that order.
-    hessian.unknown_blocks(ctx, unknown, blocks_);
+    // Level 0's rows in two passes over the model's blocks: the columns of every row (sorted,
+    // distinct), then the blocks summed into them in assembly order (matrix()'s order).
     BlockRows& a = fine.a;
-    std::vector<std::int64_t> at(static_cast<std::size_t>(count) + 1, 0);
-    for (const auto& blk : blocks_) ++at[blk.row + 1];
-    for (std::int64_t r = 0; r < count; ++r) at[r + 1] += at[r];
-    std::vector<std::int64_t> placed(blocks_.size());
-    {
-      std::vector<std::int64_t> fill(at.begin(), at.end() - 1);
-      for (std::size_t e = 0; e < blocks_.size(); ++e)
-        placed[fill[blocks_[e].row]++] = static_cast<std::int64_t>(e);
-    }
+    std::vector<std::vector<std::int64_t>> pattern(static_cast<std::size_t>(count));
+    hessian.for_each_unknown_block(
+        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double*) {
+          std::vector<std::int64_t>& cols = pattern[static_cast<std::size_t>(row)];
+          if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
+        });
     a.start.assign(1, 0);
     a.col.clear();
-    a.value.clear();
-    a.col.reserve(blocks_.size() / 2);
-    a.value.reserve(9 * (blocks_.size() / 2));
-    for (std::int64_t r = 0; r < count; ++r) {
-      auto first = placed.begin() + at[r], last = placed.begin() + at[r + 1];
-      std::stable_sort(first, last, [&](std::int64_t x, std::int64_t y) {
-        return blocks_[x].col < blocks_[y].col;
-      });
-      for (auto it = first; it != last; ++it) {
-        const auto& blk = blocks_[*it];
-        if (a.col.size() > static_cast<std::size_t>(a.start.back()) && a.col.back() == blk.col) {
-          double* out = a.value.data() + a.value.size() - 9;
-          for (int q = 0; q < 9; ++q) out[q] += blk.block[q];
-        } else {
-          a.col.push_back(blk.col);
-          a.value.insert(a.value.end(), blk.block, blk.block + 9);
-        }
-      }
+    for (std::vector<std::int64_t>& cols : pattern) {
+      std::sort(cols.begin(), cols.end());
+      a.col.insert(a.col.end(), cols.begin(), cols.end());
       a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+      std::vector<std::int64_t>().swap(cols);
     }
+    a.value.assign(9 * a.col.size(), 0.0);
+    hessian.for_each_unknown_block(
+        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double* block) {
+          const auto first = a.col.begin() + a.start[row], last = a.col.begin() + a.start[row + 1];
+          const std::int64_t at = std::lower_bound(first, last, col) - a.col.begin();
+          double* out = a.value.data() + 9 * at;
+          for (int q = 0; q < 9; ++q) out[q] += block[q];
+        });
     levels_.push_back(std::move(fine));
     // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
     // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
@@ -537,6 +527,9 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
         a.value.insert(a.value.end(), values.begin(), values.end());
         a.start.push_back(static_cast<std::int64_t>(a.col.size()));
       }
+      // The rows live on in the level: no second copy between Newton iterations.
+      std::vector<std::vector<std::int64_t>>().swap(row_cols_);
+      std::vector<std::vector<double>>().swap(row_values_);
     }
   }
 #pragma omp single
@@ -626,8 +619,7 @@ Eigen::SparseMatrix<double> VcyclePreconditioner::prolongation(int k) const {
 }
 
 std::size_t VcyclePreconditioner::memory_bytes() const {
-  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t) +
-                      blocks_.capacity() * sizeof(ModelHessian::UnknownBlock);
+  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t);
   for (const Accumulator& acc : accumulators_) {
     bytes += (acc.slot_of.capacity() + acc.cols.capacity() + acc.order.capacity()) *
                  sizeof(std::int64_t) +

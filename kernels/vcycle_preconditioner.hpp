@@ -88,12 +88,13 @@ class VcyclePreconditioner {
   [[nodiscard]] std::int64_t failures() const { return failures_; }
 
   [[nodiscard]] std::size_t memory_bytes() const;
-  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 72 B + 8 B index) and
-  /// its assembly blocks (2 edges of 4 and 2 triples of 9, 88 B each), the line factors (two
-  /// directions, 3 rows of 9 band entries), four vectors, the coarser levels (about a third of
-  /// level 0 together).
+  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 72 B + 8 B index, and
+  /// its pattern while it is made), the line factors (two directions, 3 rows of 9 band
+  /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
+  /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
+  /// 2.37 kB a slot measured on a 129^2 sheet).
   static constexpr std::size_t kBytesPerSlot =
-      (9 * 80 + (2 * 4 + 2 * 9) * 88 + 2 * 3 * 9 * 8 + 4 * 3 * 8) * 4 / 3;
+      (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3;
 
  private:
   /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
@@ -155,7 +156,6 @@ class VcyclePreconditioner {
 
   std::vector<Level> levels_;
   std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
-  std::vector<ModelHessian::UnknownBlock> blocks_;   ///< level 0's assembly
   std::vector<Accumulator> accumulators_;            ///< one per thread
   std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin rows before concatenation
   std::vector<std::vector<double>> row_values_;

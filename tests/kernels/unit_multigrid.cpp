@@ -381,5 +381,19 @@ TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
   }
 }
 
+TEST(Vcycle, MemoryEstimateCoversWhatTheCycleHoldsOnAUniformSheet) {
+  // After the step's first factorisation on a 129^2 sheet (the finest level, every line).
+  Fixture f(stretched_sheet(129, Preconditioner::vcycle));
+  load_stretched(f);
+  const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  ASSERT_GE(v.levels(), 3);
+  EXPECT_GT(v.memory_bytes(), 0u);
+  EXPECT_LE(v.memory_bytes(), 129u * 129u * kernels::VcyclePreconditioner::kBytesPerSlot);
+  kernels::SimulationConfig block_jacobi = stretched_sheet(129, Preconditioner::block_jacobi);
+  EXPECT_EQ(kernels::estimate_memory_bytes(stretched_sheet(129, Preconditioner::vcycle)) -
+                kernels::estimate_memory_bytes(block_jacobi),
+            129u * 129u * kernels::VcyclePreconditioner::kBytesPerSlot);
+}
+
 }  // namespace
 }  // namespace clothbench
