@@ -124,6 +124,19 @@ double dot(const std::vector<double>& a, const std::vector<double>& b) {
   return sum;
 }
 
+/// x . B y = y . B x and x . B x > 0 for four pairs of random vectors on the free particles.
+void expect_symmetric_positive(Fixture& f, unsigned seed) {
+  for (unsigned k = 0; k < 4; ++k) {
+    const std::vector<double> x = f.random_free(100 * seed + 2 * k);
+    const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
+    const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
+    const double xby = dot(x, by), ybx = dot(y, bx);
+    EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
+    EXPECT_GT(dot(x, bx), 0.0);
+    EXPECT_GT(dot(y, by), 0.0);
+  }
+}
+
 /// Linear PCG on the kernel's model Hessian with the objective's own preconditioner, to a
 /// relative residual of 1e-6; returns the iterations.
 int pcg_iterations(Fixture& f, const std::vector<double>& b) {
@@ -276,15 +289,7 @@ TEST(Multigrid, TheCycleIsSymmetricPositiveDefinite) {
     testing::randomise_state(f.sim, seed);
     f.assemble();
     ASSERT_EQ(f.objective.multigrid()->coarse_failures(), 0);
-    for (unsigned k = 0; k < 4; ++k) {
-      const std::vector<double> x = f.random_free(100 * seed + 2 * k);
-      const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
-      const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
-      const double xby = dot(x, by), ybx = dot(y, bx);
-      EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
-      EXPECT_GT(dot(x, bx), 0.0);
-      EXPECT_GT(dot(y, by), 0.0);
-    }
+    expect_symmetric_positive(f, seed);
   }
 }
 
@@ -369,15 +374,7 @@ TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
     const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
     ASSERT_EQ(v.failures(), 0);
     ASSERT_GE(v.levels(), 3);
-    for (unsigned k = 0; k < 4; ++k) {
-      const std::vector<double> x = f.random_free(100 * seed + 2 * k);
-      const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
-      const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
-      const double xby = dot(x, by), ybx = dot(y, bx);
-      EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
-      EXPECT_GT(dot(x, bx), 0.0);
-      EXPECT_GT(dot(y, by), 0.0);
-    }
+    expect_symmetric_positive(f, seed);
   }
 }
 
