@@ -318,13 +318,19 @@ TEST(Vcycle, PcgIterationsStayFlatFrom17To257) {
   }
 }
 
-TEST(Vcycle, ProlongationsReproduceLinearFieldsOnAGradedMeshWithGhosts) {
-  Fixture f(graded_cloth(false, Preconditioner::vcycle));
+/// The graded cloth with a random state and a V-cycle of at least three levels on it (a
+/// coarsest level of 4 nodes), assembled.
+const kernels::VcyclePreconditioner& graded_vcycle(Fixture& f, unsigned seed) {
   f.grade();
-  testing::randomise_state(f.sim, 6);
+  testing::randomise_state(f.sim, seed);
   f.objective.vcycle()->set_coarsest_nodes(4);
   f.assemble();
-  const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  return *f.objective.vcycle();
+}
+
+TEST(Vcycle, ProlongationsReproduceLinearFieldsOnAGradedMeshWithGhosts) {
+  Fixture f(graded_cloth(false, Preconditioner::vcycle));
+  const kernels::VcyclePreconditioner& v = graded_vcycle(f, 6);
   ASSERT_GE(v.levels(), 3);
   for (int k = 0; k + 1 < v.levels(); ++k) {
     const auto& p = v.prolongation(k);
@@ -350,11 +356,7 @@ TEST(Vcycle, ProlongationsReproduceLinearFieldsOnAGradedMeshWithGhosts) {
 
 TEST(Vcycle, CoarseOperatorsAreGalerkinProductsOfTheModel) {
   Fixture f(graded_cloth(true, Preconditioner::vcycle));
-  f.grade();
-  testing::randomise_state(f.sim, 8);
-  f.objective.vcycle()->set_coarsest_nodes(4);
-  f.assemble();
-  const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  const kernels::VcyclePreconditioner& v = graded_vcycle(f, 8);
   ASSERT_GE(v.levels(), 3);
   for (int k = 0; k + 1 < v.levels(); ++k) {
     const Eigen::MatrixXd p = Eigen::MatrixXd(v.prolongation(k));
@@ -367,11 +369,7 @@ TEST(Vcycle, CoarseOperatorsAreGalerkinProductsOfTheModel) {
 TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
   for (unsigned seed : {3u, 4u, 5u}) {
     Fixture f(graded_cloth(true, Preconditioner::vcycle));
-    f.grade();
-    testing::randomise_state(f.sim, seed);
-    f.objective.vcycle()->set_coarsest_nodes(4);
-    f.assemble();
-    const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+    const kernels::VcyclePreconditioner& v = graded_vcycle(f, seed);
     ASSERT_EQ(v.failures(), 0);
     ASSERT_GE(v.levels(), 3);
     expect_symmetric_positive(f, seed);
