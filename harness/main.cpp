@@ -116,8 +116,9 @@ int main(int argc, char** argv) {
       run_command
           ->add_option("--preconditioner", preconditioner,
                        "Override the preconditioner: none, block-jacobi, line-solves "
-                       "(block-tridiagonal solves along the grid lines) or multigrid (line "
-                       "solves and a coarse grid; Newton only)")
+                       "(block-tridiagonal solves along the grid lines), multigrid (line "
+                       "solves and a coarse grid; Newton only) or v-cycle (a V-cycle on the "
+                       "AMRC tree with line Gauss-Seidel; Newton only)")
           ->check(CLI::IsMember(clothbench::kernels::preconditioner_names()));
   run_command->add_option("--out", run.output_dir, "Output directory for VTK and JSON")
       ->capture_default_str();
@@ -132,6 +133,12 @@ int main(int argc, char** argv) {
   int trace_step = 0;
   auto* trace_step_option = run_command->add_option(
       "--trace-step", trace_step, "Step of the trace's timeline (default: the most chunks)");
+  std::filesystem::path trace_overheads;
+  auto* trace_overheads_option = run_command->add_option(
+      "--trace-overheads", trace_overheads,
+      "With --trace: store the per-loop and per-chunk scheduling costs of clothbench-micro "
+      "--benchmark_filter=scheduling_overhead --benchmark_format=json --benchmark_out=FILE in "
+      "the trace header (clothbench predict uses them)");
 
   std::filesystem::path check_file;
   auto* check_command =
@@ -204,6 +211,11 @@ int main(int argc, char** argv) {
   auto* sweep_trace_option = sweep_command->add_option(
       "--trace", sweep_trace_dir,
       "One extra, uncounted traced run per row: DIR/<scheduler>-<threads>t.cbtrace + timeline");
+  std::filesystem::path sweep_trace_overheads;
+  auto* sweep_trace_overheads_option = sweep_command->add_option(
+      "--trace-overheads", sweep_trace_overheads,
+      "With --trace: store the scheduling costs of this scheduling_overhead JSON "
+      "(clothbench-micro) in every trace's header");
 
   // `clothbench experiment NAME`: the paper's experiments, one command each.
   clothbench::harness::ExperimentOptions experiment;
@@ -278,6 +290,7 @@ int main(int argc, char** argv) {
       run.write_vtk = !no_vtk;
       if (*trace_option) run.trace_file = trace_file;
       if (*trace_step_option) run.trace_step = trace_step;
+      if (*trace_overheads_option) run.trace_overheads = trace_overheads;
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
@@ -309,6 +322,7 @@ int main(int argc, char** argv) {
                                           : clothbench::harness::BindMode::none;
         sweep.plots = !sweep_no_plots;
         if (*sweep_trace_option) sweep.trace_dir = sweep_trace_dir;
+        if (*sweep_trace_overheads_option) sweep.trace_overheads = sweep_trace_overheads;
         sweep.command_line.assign(argv, argv + argc);
         return clothbench::harness::run_sweep(sweep);
       } catch (const std::invalid_argument& error) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@ struct MinimiserReport {
   int linear_iterations = 0;  ///< Newton only: inner PCG iterations (products with H), summed
   int evaluations = 0;
   int restarts = 0;
+  std::int64_t smoothed = 0;  ///< Newton only: particle moves of the nonlinear smoothing, summed
   StopReason reason = StopReason::iteration_cap;
   Evaluation initial;  ///< at the step's initial guess
   Evaluation final;    ///< at the accepted result

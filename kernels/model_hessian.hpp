@@ -10,9 +10,9 @@
 //                the turning vector kappa = e2/|e2| - e1/|e1| (|kappa| = 2 sin(theta/2)), and
 //                c = w M' / Lbar with M' the band's slope on the branch the return mapping takes
 //                (0 on the plateau; at a straight triple with a previous moment the loading
-//                slope at zero curvature): positive semi-definite always, well defined at a straight
-//                triple where theta's own gradient is not, and the moment's own curvature term
-//                w M d2theta (indefinite) left out.
+//                slope at zero curvature): positive semi-definite always, well defined at a
+//                straight triple where theta's own gradient is not, and the moment's own curvature
+//                term w M d2theta (indefinite) left out.
 // Ghosts enter by the chain rule, as in the gradient: a vector is extended to every ghost by
 // the midpoint rule, and what a ghost receives goes half to each parent (ghost_nodes.hpp).
 //
@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "kernels/loop_runner.hpp"
@@ -61,6 +62,16 @@ class ModelHessian {
                                                    const std::vector<std::int64_t>& unknown_of_slot,
                                                    std::int64_t unknowns) const;
 
+  /// Called with (row unknown, column unknown, 3x3 block row-major) for every block of the
+  /// model before duplicates are summed.
+  using BlockVisitor = std::function<void(std::int64_t, std::int64_t, const double*)>;
+  /// The blocks matrix() sums, in the same order (inertia and contact per particle, then edge
+  /// and triple blocks by element id), each node expanded to its unknowns (also the V-cycle's
+  /// level 0). Sequential.
+  void for_each_unknown_block(const StepContext& ctx,
+                              const std::vector<std::int64_t>& unknown_of_slot,
+                              const BlockVisitor& visit) const;
+
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
 
@@ -90,8 +101,7 @@ void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& 
 }
 
 template <class Diagonal>
-void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx,
-                                      Diagonal& diagonal) {
+void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal) {
   const ClothState& st = ctx.state;
   const double dt = ctx.dt();
   run.for_each_prepared(
@@ -105,9 +115,8 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx,
           diagonal(s, Eigen::Matrix3d::Zero());
           return;
         }
-        const Eigen::Matrix3d own =
-            Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
-            contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness;
+        const Eigen::Matrix3d own = Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
+                                    contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness;
         store_symmetric(inertia_, s, own);
         diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
       });

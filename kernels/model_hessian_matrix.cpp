@@ -48,11 +48,30 @@ std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* co
 Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
                                                  const std::vector<std::int64_t>& unknown_of_slot,
                                                  std::int64_t unknowns) const {
+  std::vector<Eigen::Triplet<double>> triplets;
+  for_each_unknown_block(ctx, unknown_of_slot,
+                         [&](std::int64_t row, std::int64_t col, const double* block) {
+                           for (int r = 0; r < 3; ++r) {
+                             for (int c = 0; c < 3; ++c) {
+                               const double value = block[3 * r + c];
+                               if (value != 0.0)
+                                 triplets.emplace_back(3 * row + r, 3 * col + c, value);
+                             }
+                           }
+                         });
+  Eigen::SparseMatrix<double> m(3 * unknowns, 3 * unknowns);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+void ModelHessian::for_each_unknown_block(const StepContext& ctx,
+                                          const std::vector<std::int64_t>& unknown_of_slot,
+                                          const BlockVisitor& visit) const {
   const ClothMesh& mesh = ctx.mesh;
   const ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  std::vector<Eigen::Triplet<double>> triplets;
   std::vector<std::pair<std::int64_t, double>> rows, cols;
+  double scaled[9];
   // Block B between nodes r and s, expanded to the unknowns on both sides.
   auto add = [&](std::int64_t r, std::int64_t s, const Eigen::Matrix3d& block) {
     rows.clear();
@@ -62,11 +81,9 @@ Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
     for (const auto& [i, wi] : rows) {
       for (const auto& [j, wj] : cols) {
         for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) {
-            const double value = wi * wj * block(a, b);
-            if (value != 0.0) triplets.emplace_back(3 * i + a, 3 * j + b, value);
-          }
+          for (int c = 0; c < 3; ++c) scaled[3 * a + c] = wi * wj * block(a, c);
         }
+        visit(i, j, scaled);
       }
     }
   };
@@ -107,9 +124,6 @@ Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
       }
     }
   }
-  Eigen::SparseMatrix<double> m(3 * unknowns, 3 * unknowns);
-  m.setFromTriplets(triplets.begin(), triplets.end());
-  return m;
 }
 
 }  // namespace clothbench::kernels

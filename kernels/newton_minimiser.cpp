@@ -74,6 +74,17 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     }
     previous_norm = norm;
     current = ls.at;
+    if (settings.smoothing_sweeps > 0) {
+      // Local nonlinear corrections the global model cannot make: an element past a kink of
+      // its band (plateau wall, onset of tension) is relaxed particle by particle.
+      const std::int64_t moved =
+          objective.smooth(run, settings.smoothing_sweeps, settings.smoothing_threshold);
+      report.smoothed += moved;
+      if (moved > 0) {  // else the line search's evaluation still holds
+        current = objective.evaluate(run);
+        ++report.evaluations;
+      }
+    }
     if (settings.record_values) report.values.push_back(current.value);
     ++report.iterations;
   }

@@ -124,6 +124,28 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
   return term;
 }
 
+/// Calls edge(id) for every active edge and triple(id) for every active triple that node k
+/// belongs to (an element touching two given nodes is reported for each; ghosts' own
+/// elements only when k is the ghost). The terms of Phi that a move of k changes.
+template <class Edge, class Triple>
+inline void for_each_element_at(const ClothMesh& mesh, std::int64_t k, Edge&& edge,
+                                Triple&& triple) {
+  for (int d = 0; d < 2; ++d) {
+    const std::int64_t id = element_id(k, d);
+    const std::int32_t n = mesh.next[id], p = mesh.prev[id];
+    if (mesh.edge_active[id]) edge(id);
+    if (mesh.triple_active[id]) triple(id);
+    if (p >= 0 && mesh.next[element_id(p, d)] == k) {
+      const std::int64_t ep = element_id(p, d);
+      if (mesh.edge_active[ep]) edge(ep);
+      if (mesh.triple_active[ep]) triple(ep);
+    }
+    if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == k) {
+      triple(element_id(n, d));
+    }
+  }
+}
+
 /// The elastic part of a particle's gradient (= -F_s, MODEL.md 2):
 /// sum_e t_e w_e dl/dx_s + sum_t M_t w_t dtheta/dx_s over every edge and triple touching s,
 /// in a fixed order, with the element coefficients given by callables:

@@ -24,6 +24,7 @@ void PotentialObjective::assemble_newton(LoopRunner& run) {
     }
     store_symmetric(st.preconditioner, s, inverse);
   });
+  if (vcycle_ != nullptr) vcycle_->factor(run, ctx_, newton_->hessian);
   if (lines == nullptr) return;
   const ModelHessian& hessian = newton_->hessian;
   run.for_each(ElementKind::edges, [&](std::int64_t id) {
@@ -53,9 +54,13 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
                                             : Eigen::Vector3d::Zero();
   });
   // z = M^-1 r (into `product`) with the sums r . z and |r|_W^2. Block Jacobi is computed in
-  // the same loop as the sums; line solves first solve every line, the multigrid runs a cycle.
+  // the same loop as the sums; line solves first solve every line, the multigrids run a cycle.
+  // Block Jacobi is applied inside the PCG's own loops; every other preconditioner has its own.
+  const bool own_loops = lines != nullptr || vcycle_ != nullptr;
   auto precondition_residual = [&]() {
-    if (multigrid_ != nullptr) {
+    if (vcycle_ != nullptr) {
+      vcycle_->apply(run, ctx_, ns.residual, ns.product);
+    } else if (multigrid_ != nullptr) {
       multigrid_->apply(run, ctx_, *lines, ns.residual, ns.product);
     } else if (lines != nullptr) {
       lines->apply(run, ctx_, ns.residual, ns.product);
@@ -68,7 +73,7 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
                               return;
                             }
                             const Eigen::Vector3d r = vec3(ns.residual, s);
-                            if (lines == nullptr) z = apply_symmetric(st.preconditioner, s, r);
+                            if (!own_loops) z = apply_symmetric(st.preconditioner, s, r);
                             acc.rz += r.dot(z);
                             acc.weighted += r.squaredNorm() * weight(s);
                           });
@@ -94,7 +99,7 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
     }
     const double alpha = rz / pq;
     ++report.iterations;
-    const bool fused = lines == nullptr;
+    const bool fused = !own_loops;
     run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
                           [&](std::int64_t s, PcgSums& acc) {
                             if (!ctx_.is_free(s)) return;

@@ -35,6 +35,14 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
     }
     multigrid_ = std::make_unique<MultigridPreconditioner>();
   }
+  if (kind == Preconditioner::vcycle) {
+    if (newton_ == nullptr) {
+      throw std::invalid_argument(
+          "the v-cycle preconditioner needs method = \"newton\" (kernels::validate)");
+    }
+    vcycle_ = std::make_unique<VcyclePreconditioner>();
+    vcycle_->set_coarsest_nodes(ctx.config.solver.coarsest_nodes);
+  }
 }
 
 PotentialObjective::~PotentialObjective() = default;
@@ -51,6 +59,20 @@ void PotentialObjective::begin_step(LoopRunner& run) {
         if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 1.0, mask);
       });
   refresh_ghosts(run, ctx_.mesh, st.position);
+  // The colouring follows the active set (AMRC) and the pins (scripted events); without either
+  // it is made once.
+  const bool mesh_may_change = ctx_.config.amrc.enabled || !ctx_.config.events.empty();
+  if (newton_ != nullptr && effective_smoothing_sweeps(ctx_.config.solver) > 0) {
+    if (mesh_may_change) {
+      colour_for_smoothing(run);
+    } else {
+      // Every thread must take the same branch: all of them read the (shared) colouring
+      // before the single inside colour_for_smoothing may fill it.
+      const bool first = smoothing_colour_.empty();
+#pragma omp barrier
+      if (first) colour_for_smoothing(run);
+    }
+  }
   refresh_preconditioner(run);
 }
 
@@ -181,20 +203,9 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
   edges.clear();
   triples.clear();
   for (const auto& mover : movers) {
-    const std::int64_t k = mover.first;
-    for (int d = 0; d < 2; ++d) {
-      const std::int64_t id = element_id(k, d);
-      const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-      if (mesh.edge_active[id]) edges.push_back(id);
-      if (mesh.triple_active[id]) triples.push_back(id);
-      if (p >= 0 && mesh.next[element_id(p, d)] == k) {
-        if (mesh.edge_active[element_id(p, d)]) edges.push_back(element_id(p, d));
-        if (mesh.triple_active[element_id(p, d)]) triples.push_back(element_id(p, d));
-      }
-      if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == k) {
-        triples.push_back(element_id(n, d));
-      }
-    }
+    for_each_element_at(
+        mesh, mover.first, [&](std::int64_t id) { edges.push_back(id); },
+        [&](std::int64_t id) { triples.push_back(id); });
   }
   for (auto* list : {&edges, &triples}) {
     std::sort(list->begin(), list->end());
@@ -208,6 +219,14 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
   for (std::int64_t id : edges) energy += edge_term(ctx_, id, x).energy;
   for (std::int64_t id : triples) energy += triple_term(ctx_, id, x).energy;
   return energy;
+}
+
+Eigen::Vector3d PotentialObjective::own_gradient(std::int64_t s, const Eigen::Vector3d& xs,
+                                                 const ContactPenalty& contact) const {
+  const ClothState& st = ctx_.state;
+  const double dt = ctx_.dt(), m = ctx_.mesh.mass[s];
+  return m / (dt * dt) * (xs - vec3(st.target, s)) - m * ctx_.config.time.gravity +
+         contact.gradient;
 }
 
 Eigen::Vector3d PotentialObjective::numeric_gradient(std::int64_t s) const {
@@ -277,12 +296,9 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
         if (!broad_phase) acc.contact_tested += obstacles;
         acc.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
                       m * gravity.dot(xs - vec3(st.step_start, s)) + contact.energy;
-        if (numeric) {
-          g = numeric_gradient(s);
-        } else {
-          g = m / (dt * dt) * offset - m * gravity + contact.gradient +
-              gather_elastic_gradient(mesh, st, s, x);
-        }
+        g = numeric ? numeric_gradient(s)
+                    : Eigen::Vector3d(own_gradient(s, xs, contact) +
+                                      gather_elastic_gradient(mesh, st, s, x));
         if (ctx_.is_forced(s)) {  // the scripted force f: -f . (x - x^n) in Phi
           const Eigen::Vector3d f = ctx_.external_force(s);
           acc.energy -= f.dot(xs - vec3(st.step_start, s));

@@ -10,6 +10,7 @@
 
 #include "kernels/line_preconditioner.hpp"
 #include "kernels/multigrid_preconditioner.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/step_objective.hpp"
@@ -32,7 +33,8 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] std::size_t memory_bytes() const override {
     return (lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double)) +
            (newton_ == nullptr ? 0 : newton_->memory_bytes()) +
-           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes());
+           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes()) +
+           (vcycle_ == nullptr ? 0 : vcycle_->memory_bytes());
   }
 
   // --- Newton (StepMethod::newton; potential_newton.cpp) ---------------------------------
@@ -53,12 +55,36 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] LinePreconditioner* line_preconditioner() { return lines_.get(); }
   /// The multigrid preconditioner, or null (tests).
   [[nodiscard]] MultigridPreconditioner* multigrid() { return multigrid_.get(); }
+  /// The V-cycle preconditioner, or null (tests).
+  [[nodiscard]] VcyclePreconditioner* vcycle() { return vcycle_.get(); }
+
+  /// Colours the free particles for `smooth` (every thread calls it; one colours, greedy in
+  /// slot order, so that no element touches two particles of one colour); again after every
+  /// change of the active set or of the pins.
+  void colour_for_smoothing(LoopRunner& run);
+  /// Nonlinear block Gauss-Seidel (kernels/potential_smoothing.cpp): `sweeps` sweeps, colour by
+  /// colour, in which a free particle whose normalised residual |g_i| / (m_i |g|) is at least
+  /// `threshold` takes one Newton step on the terms of Phi that involve it, kept only if they
+  /// decrease (so Phi does). The first sweep visits the particles whose residual at the last
+  /// evaluation is large, later ones those a move touched. Every thread calls it; the caller
+  /// evaluates afterwards. Returns the number of particles that moved.
+  std::int64_t smooth(LoopRunner& run, int sweeps, double threshold);
+  /// Each slot's smoothing colour (-1: not free) and the slots of every colour (tests).
+  [[nodiscard]] const std::vector<int>& smoothing_colours() const { return smoothing_colour_; }
+  [[nodiscard]] std::size_t smoothing_colour_count() const { return smoothing_lists_.size(); }
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
   /// (the local cost the numeric gradient differentiates).
   double local_energy(std::int64_t s, const Eigen::Vector3d& xs) const;
   Eigen::Vector3d numeric_gradient(std::int64_t s) const;
+  /// The gradient of Phi at particle s from the current positions (what evaluate computes
+  /// for s, without the loops over every element).
+  Eigen::Vector3d local_gradient(std::int64_t s) const;
+  /// The particle's own part of the gradient at xs: inertia, gravity and `contact` (evaluated
+  /// at xs); the elements' part is gathered and a scripted force subtracted after it.
+  Eigen::Vector3d own_gradient(std::int64_t s, const Eigen::Vector3d& xs,
+                               const ContactPenalty& contact) const;
   /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact with the
   /// obstacles in `mask`).
   Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
@@ -78,6 +104,12 @@ class PotentialObjective final : public StepObjective {
   std::vector<double> line_z_;  ///< 3 per slot: P^-1 g at the current point (line solves)
   std::unique_ptr<NewtonSystem> newton_;
   std::unique_ptr<MultigridPreconditioner> multigrid_;  ///< Newton with preconditioner = multigrid
+  std::unique_ptr<VcyclePreconditioner> vcycle_;        ///< Newton with preconditioner = v-cycle
+  /// Nonlinear smoothing: each free slot's colour (-1 otherwise), the slots of each colour in
+  /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call).
+  std::vector<int> smoothing_colour_;
+  std::vector<std::vector<std::int64_t>> smoothing_lists_;
+  std::vector<int> smoothing_moved_;
 };
 
 }  // namespace clothbench::kernels

@@ -12,6 +12,7 @@
 
 #include "kernels/line_preconditioner.hpp"
 #include "kernels/multigrid_preconditioner.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 #include "kernels/newton_minimiser.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/potential_objective.hpp"
@@ -77,6 +78,8 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   newton.max_newton_iterations = config_.solver.max_newton_iterations;
   newton.max_linear_iterations = config_.solver.max_linear_iterations;
   newton.record_values = config_.solver.record_values;
+  newton.smoothing_sweeps = effective_smoothing_sweeps(config_.solver);
+  newton.smoothing_threshold = config_.solver.smoothing_threshold * config_.solver.tolerance;
   StepReport report;
   const double start = monotonic_seconds();
   // Scripted events are sequential state changes between steps: part of the step's time.
@@ -414,9 +417,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
       kind == Preconditioner::multigrid
           ? n * (MultigridPreconditioner::kBytesPerSlot + (2 * 4 + 2 * 9) * 9 * 16 + 3 * 27 * 12)
           : 0;
+  const std::size_t vcycle = kind == Preconditioner::vcycle ? n * VcyclePreconditioner::kBytesPerSlot : 0;
   const std::size_t newton =
       config.solver.method == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
-  return n * per_slot + lines + multigrid + newton + (16u << 20);
+  return n * per_slot + lines + multigrid + vcycle + newton + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

@@ -25,11 +25,12 @@ constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
     {StepMethod::nonlinear_cg, "nonlinear-cg"},
     {StepMethod::newton, "newton"},
 }};
-constexpr std::array<std::pair<Preconditioner, const char*>, 4> kPreconditioners{{
+constexpr std::array<std::pair<Preconditioner, const char*>, 5> kPreconditioners{{
     {Preconditioner::none, "none"},
     {Preconditioner::block_jacobi, "block-jacobi"},
     {Preconditioner::line_solves, "line-solves"},
     {Preconditioner::multigrid, "multigrid"},
+    {Preconditioner::vcycle, "v-cycle"},
 }};
 
 template <class Table, class Enum>
@@ -94,17 +95,19 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "expected preconditioner = \"block-jacobi\" or \"none\" with formulation "
                         "= \"violation\", or formulation = \"potential\""});
   }
-  if (solver.preconditioner == Preconditioner::multigrid && solver.method != StepMethod::newton &&
-      !violation) {
+  const bool newton_only = solver.preconditioner == Preconditioner::multigrid ||
+                           solver.preconditioner == Preconditioner::vcycle;
+  const std::string name = to_string(solver.preconditioner);
+  if (newton_only && solver.method != StepMethod::newton && !violation) {
     problems.push_back({"solver.preconditioner", "solver.method",
-                        "the multigrid preconditioner preconditions Newton's inner linear PCG "
+                        "the " + name + " preconditioner preconditions Newton's inner linear PCG "
                         "(its coarse operator is built from the Newton model)",
-                        "expected method = \"newton\" with preconditioner = \"multigrid\", or "
+                        "expected method = \"newton\" with preconditioner = \"" + name + "\", or "
                         "preconditioner = \"line-solves\" with nonlinear CG"});
   }
-  if (violation && solver.preconditioner == Preconditioner::multigrid) {
+  if (violation && newton_only) {
     problems.push_back({"solver.preconditioner", "solver.formulation",
-                        "the multigrid preconditioner is implemented for the potential "
+                        "the " + name + " preconditioner is implemented for the potential "
                         "formulation's Newton method only",
                         "expected preconditioner = \"block-jacobi\" or \"none\" with formulation "
                         "= \"violation\", or formulation = \"potential\" with method = "
@@ -124,6 +127,12 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "only",
                         "expected kernel = \"reference\" with formulation = \"violation\", or "
                         "formulation = \"potential\""});
+  }
+  if (solver.smoothing_sweeps > 0 && solver.method != StepMethod::newton) {
+    problems.push_back({"solver.smoothing_sweeps", "solver.method",
+                        "the nonlinear smoothing runs after each of Newton's line searches",
+                        "expected method = \"newton\" with smoothing_sweeps > 0, or "
+                        "smoothing_sweeps = 0"});
   }
   if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
     problems.push_back({"solver.gradient", "amrc.enabled",

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -43,10 +44,11 @@ enum class Preconditioner {
   block_jacobi,  ///< per-particle 3x3 blocks of the model stiffness
   line_solves,   ///< block-tridiagonal solves along the grid lines (potential formulation)
   multigrid,     ///< line-solve smoothing and a Galerkin coarse grid (Newton's inner PCG only)
+  vcycle,        ///< V-cycle on the AMRC tree, line Gauss-Seidel smoother (Newton's inner PCG only)
 };
 
 /// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
-/// "line-solves", "multigrid"), used by scene files, the CLI and every output; from_string returns nullopt
+/// "line-solves", "multigrid", "v-cycle"), used by scene files, the CLI and every output; from_string returns nullopt
 /// for any other text.
 const char* to_string(Formulation formulation);
 const char* to_string(GradientMode gradient);
@@ -118,6 +120,11 @@ struct ContactConfig {
   bool broad_phase = true;
 };
 
+/// Sweeps of the nonlinear smoothing under Newton unless a scene says otherwise: on the 40-step
+/// stress drape they cut Newton iterations 5x at 65^2 and 7x at 129^2 (MODEL-NOTES.md, Newton,
+/// "Nonlinear smoothing").
+inline constexpr int kDefaultSmoothingSweeps = 3;
+
 /// Minimisation of one step (MODEL.md section 5).
 struct SolverConfig {
   Formulation formulation = Formulation::potential;
@@ -136,6 +143,14 @@ struct SolverConfig {
   /// Newton: Newton iterations per step, and linear PCG iterations per Newton iteration.
   int max_newton_iterations = 100;
   int max_linear_iterations = 300;
+  /// Newton: sweeps of nonlinear block Gauss-Seidel after each line search (0: none; -1:
+  /// kDefaultSmoothingSweeps under Newton, none under nonlinear CG; see
+  /// effective_smoothing_sweeps), and the normalised residual, as a multiple of `tolerance`,
+  /// from which a particle is relaxed.
+  int smoothing_sweeps = -1;
+  double smoothing_threshold = 1.0;
+  /// V-cycle: a level with at most this many nodes is solved directly (sparse LDL^T).
+  std::int64_t coarsest_nodes = 600;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
   /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.
@@ -158,6 +173,12 @@ struct SolverConfig {
   /// schedulers and thread counts is not expected with a budget.
   double time_budget = 0.0;
 };
+
+/// The sweeps of nonlinear smoothing a solver configuration runs (the automatic -1 resolved).
+inline int effective_smoothing_sweeps(const SolverConfig& solver) {
+  if (solver.smoothing_sweeps >= 0) return solver.smoothing_sweeps;
+  return solver.method == StepMethod::newton ? kDefaultSmoothingSweeps : 0;
+}
 
 /// Adaptive mesh refinement and coarsening (MODEL.md section 6); parsed now, used by AMRC.
 struct AmrcConfig {

@@ -1,9 +1,11 @@
 // Scheduling overhead of every registered backend, by the method of EPCC schedbench.
 //
-// Test: a parallel region of P = omp_get_max_threads() threads runs `inner` consecutive loops
-// of P x iterations_per_thread iterations through the driver, along the path the cloth kernel
-// takes (kernels/loop_runner.hpp): one virtual for_range per loop, one RangeBody call per
-// range the scheduler hands out, and the per-iteration work inlined inside the range. Every
+// Test: a parallel region of P threads (P = 1, and P = omp_get_max_threads() when that is
+// more: two results per scheduler, `scheduling_overhead/SPEC/threads:P`) runs `inner`
+// consecutive loops of P x iterations_per_thread iterations through the driver, along the
+// path the cloth kernel takes (kernels/loop_runner.hpp): one virtual for_range per loop, one
+// RangeBody call per range the scheduler hands out, and the per-iteration work inlined inside
+// the range. Every
 // iteration is a delay (a floating-point chain) of about 100 ns. Reference: one thread runs the
 // same range body over one thread's share, once per loop, with no scheduling. Both are measured
 // in every outer repetition, one right after the other (so a repetition's pair shares the
@@ -239,8 +241,9 @@ struct DriverSamples {
   }
 };
 
+// `threads`: the team size of the test (the reference always runs on one thread).
 template <DelayKind kind>
-void scheduling_overhead(benchmark::State& state, const std::string& spec) {
+void scheduling_overhead(benchmark::State& state, const std::string& spec, int threads) {
   std::unique_ptr<LoopDriver> driver;
   try {
     driver = clothbench::schedulers::make_driver(spec);
@@ -248,7 +251,6 @@ void scheduling_overhead(benchmark::State& state, const std::string& spec) {
     state.SkipWithError(error.what());
     return;
   }
-  const int threads = omp_get_max_threads();
   const Delay delay = calibrate_delay<kind>(delay_target_ns);
   const int inner = inner_loops(delay);
   DriverSamples samples;
@@ -373,17 +375,26 @@ void scheduling_overhead_dynamic_k(benchmark::State& state) {
 
 [[maybe_unused]] const bool scheduling_overhead_registered = [] {
   const int repetitions = clothbench::micro::scaled(outer_repetitions, 3);
+  // Every scheduler at 1 thread and at the machine's team size P (OMP_NUM_THREADS or all
+  // hardware threads): `clothbench predict --overheads` adds what P threads cost beyond 1
+  // thread, because a trace's times already hold the 1-thread costs.
+  const int team = omp_get_max_threads();
+  std::vector<int> team_sizes{1};
+  if (team > 1) team_sizes.push_back(team);
   for (const std::string& spec : clothbench::schedulers::available_schedulers()) {
-    benchmark::RegisterBenchmark(("scheduling_overhead/" + spec).c_str(),
-                                 scheduling_overhead<DelayKind::chained>, spec)
-        ->UseRealTime()
-        ->Unit(benchmark::kMillisecond)
-        ->Iterations(repetitions);
+    for (int threads : team_sizes) {
+      benchmark::RegisterBenchmark(
+          fmt::format("scheduling_overhead/{}/threads:{}", spec, threads).c_str(),
+          scheduling_overhead<DelayKind::chained>, spec, threads)
+          ->UseRealTime()
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(repetitions);
+    }
   }
-  // The schedules EPCC schedbench was compared with, with its own body (DelayKind).
+  // The schedules EPCC schedbench was compared with, with its own body (DelayKind), at P.
   for (const std::string spec : {"static", "static:4", "dynamic:1", "dynamic:2", "guided:1"}) {
     benchmark::RegisterBenchmark(("scheduling_overhead_epcc_body/" + spec).c_str(),
-                                 scheduling_overhead<DelayKind::independent>, spec)
+                                 scheduling_overhead<DelayKind::independent>, spec, team)
         ->UseRealTime()
         ->Unit(benchmark::kMillisecond)
         ->Iterations(repetitions);

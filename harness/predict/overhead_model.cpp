@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <vector>
 
 namespace clothbench::harness {
 
@@ -62,51 +63,119 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   struct Figures {
     double loop_seconds;
     double chunks_per_thread;
-    int threads;
     bool disturbed;
   };
-  std::map<std::string, Figures> by_spec;
+  // By spec, then team size.
+  std::map<std::string, std::map<int, Figures>> by_spec;
   const std::string prefix = "scheduling_overhead/";
   for (const auto& b : document["benchmarks"]) {
     const std::string name = b.value("name", std::string());
     if (name.rfind(prefix, 0) != 0 || !b.contains("overhead_loop_us_median")) continue;
     std::string spec = name.substr(prefix.size());
-    spec = spec.substr(0, spec.find('/'));  // "/iterations:30/real_time" follows
+    spec = spec.substr(0, spec.find('/'));  // "/threads:T/iterations:30/real_time" follows
     const int threads = static_cast<int>(b.value("threads", 0.0));
     if (threads < 1) continue;
-    by_spec[spec] = {1e-6 * b["overhead_loop_us_median"].get<double>(),
-                     b.value("chunks_per_loop", 0.0) / threads, threads,
-                     b.value("disturbed", 0.0) != 0.0};
+    by_spec[spec][threads] = {1e-6 * b["overhead_loop_us_median"].get<double>(),
+                              b.value("chunks_per_loop", 0.0) / threads,
+                              b.value("disturbed", 0.0) != 0.0};
   }
+  const std::string rerun =
+      "(run clothbench-micro --benchmark_filter=scheduling_overhead --benchmark_format=json "
+      "--benchmark_out=FILE, which measures 1 thread and the machine's team size)";
   const auto reference = by_spec.find("static@blocks");
   if (reference == by_spec.end()) {
-    throw std::invalid_argument(
-        file.string() +
-        ": holds no scheduling_overhead/static@blocks result (run clothbench-micro "
-        "--benchmark_filter=scheduling_overhead --benchmark_format=json --benchmark_out=FILE)");
+    throw std::invalid_argument(file.string() +
+                                ": holds no scheduling_overhead/static@blocks result " + rerun);
   }
+  const auto& sizes = reference->second;
+  const int team = sizes.rbegin()->first;
+  if (sizes.count(1) == 0 || team < 2) {
+    throw std::invalid_argument(fmt::format(
+        "{}: holds scheduling_overhead/static@blocks at {} thread{} only; the model adds what P "
+        "threads cost beyond 1 thread and needs both {}",
+        file.string(), team, team == 1 ? "" : "s", rerun));
+  }
+  const Figures& static_one = sizes.at(1);
+  const Figures& static_team = sizes.at(team);
   OverheadModel model;
   model.measured = true;
-  model.measured_threads = reference->second.threads;
-  model.loop_seconds = std::max(0.0, reference->second.loop_seconds);
+  model.measured_threads = team;
+  model.loop_seconds_at_one = static_one.loop_seconds;
+  model.loop_seconds_at_measured = static_team.loop_seconds;
+  model.loop_seconds = std::max(0.0, static_team.loop_seconds - static_one.loop_seconds);
   model.source = fmt::format(
-      "{}: scheduling_overhead medians at {} threads (per loop {:.2f} us from static@blocks)",
-      file.string(), model.measured_threads, 1e6 * model.loop_seconds);
-  for (const auto& [spec, f] : by_spec) {
-    if (f.disturbed) model.disturbed.push_back(spec);
-    if (spec == "static@blocks" || f.chunks_per_thread <= 0.0 || f.disturbed) continue;
-    model.dispatch_seconds[spec] =
-        std::max(0.0, (f.loop_seconds - model.loop_seconds) / f.chunks_per_thread);
+      "{}: scheduling_overhead medians at {} threads minus those at 1 thread, added above 1 "
+      "thread only (the trace's times hold the 1-thread costs); per loop {:.2f} us = "
+      "static@blocks {:.2f} - {:.2f} us",
+      file.string(), team, 1e6 * model.loop_seconds, 1e6 * static_team.loop_seconds,
+      1e6 * static_one.loop_seconds);
+  std::vector<std::string> one_size;
+  for (const auto& [spec, at] : by_spec) {
+    const bool disturbed =
+        std::any_of(at.begin(), at.end(), [](const auto& entry) { return entry.second.disturbed; });
+    if (disturbed) model.disturbed.push_back(spec);
+    if (spec == "static@blocks" || disturbed) continue;
+    if (at.count(1) == 0 || at.count(team) == 0) {
+      one_size.push_back(spec);
+      continue;
+    }
+    const Figures& one = at.at(1);
+    const Figures& many = at.at(team);
+    if (one.chunks_per_thread <= 0.0 || many.chunks_per_thread <= 0.0) continue;
+    const double at_one = (one.loop_seconds - static_one.loop_seconds) / one.chunks_per_thread;
+    const double at_team = (many.loop_seconds - static_team.loop_seconds) / many.chunks_per_thread;
+    model.dispatch_seconds[spec] = std::max(0.0, at_team - at_one);
   }
   model.dispatch_seconds["static@blocks"] = 0.0;
-  if (!model.disturbed.empty()) {
+  const auto list = [](const std::vector<std::string>& specs) {
     std::string names;
-    for (const std::string& spec : model.disturbed) names += (names.empty() ? "" : ", ") + spec;
+    for (const std::string& spec : specs) names += (names.empty() ? "" : ", ") + spec;
+    return names;
+  };
+  if (!model.disturbed.empty()) {
     model.source += fmt::format(
         "; {} of {} results disturbed by other work on the machine, not "
         "used for dispatch costs: {}",
-        model.disturbed.size(), by_spec.size(), names);
+        model.disturbed.size(), by_spec.size(), list(model.disturbed));
   }
+  if (!one_size.empty()) {
+    model.source += fmt::format("; measured at one team size only, not used: {}", list(one_size));
+  }
+  return model;
+}
+
+nlohmann::json overhead_model_json(const OverheadModel& model) {
+  return {{"source", model.source},
+          {"measured_threads", model.measured_threads},
+          {"loop_seconds", model.loop_seconds},
+          {"loop_seconds_at_one_thread", model.loop_seconds_at_one},
+          {"loop_seconds_at_measured_threads", model.loop_seconds_at_measured},
+          {"dispatch_seconds", model.dispatch_seconds},
+          {"disturbed", model.disturbed}};
+}
+
+nlohmann::json trace_overheads_header(const std::filesystem::path& file) {
+  try {
+    return overhead_model_json(read_overhead_model(file));
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(std::string("--trace-overheads: ") + error.what());
+  }
+}
+
+OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::string& origin) {
+  OverheadModel model;
+  try {
+    model.measured_threads = stored.at("measured_threads").get<int>();
+    model.loop_seconds = stored.at("loop_seconds").get<double>();
+    model.loop_seconds_at_one = stored.at("loop_seconds_at_one_thread").get<double>();
+    model.loop_seconds_at_measured = stored.at("loop_seconds_at_measured_threads").get<double>();
+    model.dispatch_seconds = stored.at("dispatch_seconds").get<std::map<std::string, double>>();
+    model.disturbed = stored.at("disturbed").get<std::vector<std::string>>();
+    model.source = origin + ", copied from " + stored.at("source").get<std::string>();
+  } catch (const nlohmann::json::exception& error) {
+    throw std::invalid_argument(origin + ": overheads: " + error.what());
+  }
+  model.measured = true;
   return model;
 }
 

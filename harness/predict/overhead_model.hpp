@@ -1,26 +1,38 @@
 // The scheduling costs the predictor adds to the replayed work (issue 17): per loop (fork/join
 // and the closing barrier) and per chunk (dispatch), read from the JSON that
 // `clothbench-micro --benchmark_filter=scheduling_overhead --benchmark_out=FILE
-// --benchmark_format=json` writes (harness/micro/scheduling_overhead.cpp), or zero.
+// --benchmark_format=json` writes (harness/micro/scheduling_overhead.cpp, which measures every
+// scheduler at 1 thread and at the machine's team size P), or from a trace's header (copied
+// there by `run|sweep --trace-overheads FILE`), or zero.
+//
+// Only what P threads cost beyond 1 thread is added: a trace's chunk and loop times already
+// hold what its loops paid at 1 thread, so the model is overhead(P) - overhead(1), per loop and
+// per chunk, added at every predicted thread count above 1 and never at 1.
 #pragma once
 
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace clothbench::harness {
 
-/// Costs per loop and per chunk, as measured at one team size.
+/// Costs per loop and per chunk beyond a 1-thread run's, measured at one team size.
 struct OverheadModel {
   /// Where the figures come from, for the output: the file, or why they are zero.
   std::string source = "none: overheads assumed zero (no --overheads FILE; the trace stores none)";
   bool measured = false;
-  int measured_threads = 0;   ///< team size of the micro-benchmark run
-  double loop_seconds = 0.0;  ///< per loop: static@blocks' overhead (fork/join, barrier)
-  std::map<std::string, double> dispatch_seconds;  ///< per chunk, by canonical spec
-  /// Results the micro-benchmark marked disturbed (other work took the cores): not used for
-  /// dispatch costs (static@blocks is used anyway, and listed, when it is one of them).
+  int measured_threads = 0;  ///< team size P of the micro-benchmark run
+  /// Per loop, added above 1 thread: static@blocks' overhead at P - at 1 thread, at least 0.
+  double loop_seconds = 0.0;
+  double loop_seconds_at_one = 0.0;       ///< static@blocks' per-loop overhead at 1 thread
+  double loop_seconds_at_measured = 0.0;  ///< static@blocks' per-loop overhead at P threads
+  /// Per chunk, added above 1 thread, by canonical spec: dispatch at P - dispatch at 1, >= 0.
+  std::map<std::string, double> dispatch_seconds;
+  /// Results the micro-benchmark marked disturbed (other work took the cores), at either team
+  /// size: not used for dispatch costs (static@blocks is used anyway, and listed, when it is
+  /// one of them).
   std::vector<std::string> disturbed;
 
   /// Dispatch cost of one chunk of `canonical`: its own figure, else that of the same kind
@@ -31,12 +43,25 @@ struct OverheadModel {
   [[nodiscard]] std::string dispatch_source(const std::string& canonical) const;
 };
 
-/// Reads the Google Benchmark JSON of the scheduling_overhead benchmarks. Per loop: the
-/// median per-loop overhead of static@blocks (one chunk per thread). Per chunk of a spec S:
-/// (its per-loop overhead - static's) / (its chunks per loop / P), at least 0; results marked
-/// disturbed are left out (and listed in the source text) except static@blocks. Throws
-/// std::invalid_argument naming the file when it cannot be read or holds no static@blocks
-/// result.
+/// Reads the Google Benchmark JSON of the scheduling_overhead benchmarks, which holds each
+/// spec at 1 thread and at P > 1 threads (the `threads` counter). With o(S, T) the median
+/// per-loop overhead of spec S at T threads and c(S, T) its chunks per loop:
+///   per loop  = max(0, o(static@blocks, P) - o(static@blocks, 1))
+///   per chunk = max(0, d(S, P) - d(S, 1)),  d(S, T) = (o(S, T) - o(static@blocks, T)) /
+///                                                     (c(S, T) / T)
+/// Results marked disturbed at either size are left out (and listed in the source text) except
+/// static@blocks; a spec measured at one size only is left out. Throws std::invalid_argument
+/// naming the file when it cannot be read or holds no static@blocks result at both 1 and P > 1
+/// threads.
 OverheadModel read_overhead_model(const std::filesystem::path& file);
+
+/// The model as stored in a trace's header ("overheads"): every figure and the source text.
+nlohmann::json overhead_model_json(const OverheadModel& model);
+/// `run|sweep --trace-overheads FILE`: the model read from FILE (read_overhead_model), as the
+/// trace header stores it. Throws std::invalid_argument naming the flag and the file.
+nlohmann::json trace_overheads_header(const std::filesystem::path& file);
+/// Reads what overhead_model_json wrote; `origin` (e.g. "TRACE's header") prefixes the source
+/// text. Throws std::invalid_argument naming `origin` when a figure is missing or not a number.
+OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::string& origin);
 
 }  // namespace clothbench::harness

@@ -41,7 +41,9 @@ PredictCommand::PredictCommand(CLI::App& app) : schedulers_(kPaperSchedulers) {
   command_->add_option("--overheads", overheads_file_,
                        "Per-loop and per-chunk costs: clothbench-micro "
                        "--benchmark_filter=scheduling_overhead --benchmark_format=json "
-                       "--benchmark_out=FILE (default: zero, said in the output)");
+                       "--benchmark_out=FILE; what P threads cost beyond 1 thread is added "
+                       "above 1 thread (default: the trace's stored costs, else zero; the output "
+                       "says which)");
   command_->add_option("--out", out_dir_,
                        "Write prediction.json, table.md and fig12.{dat,gp,png} here");
   command_->add_option("--json", json_file_, "Also write the result as JSON to this file");
@@ -54,13 +56,13 @@ PredictCommand::PredictCommand(CLI::App& app) : schedulers_(kPaperSchedulers) {
 }
 
 int PredictCommand::run() {
-  OverheadModel overheads;
+  std::optional<OverheadModel> given;  // --overheads; else the trace's stored costs, else 0
   try {
-    if (!overheads_file_.empty()) overheads = read_overhead_model(overheads_file_);
+    if (!overheads_file_.empty()) given = read_overhead_model(overheads_file_);
   } catch (const std::invalid_argument& error) {
     return bad(fmt::format("--overheads: {}", error.what()));
   }
-  if (!validate_file_.empty()) return run_validation();
+  if (!validate_file_.empty()) return run_validation(given);
   if (trace_file_.empty()) return bad("TRACE: a trace file is required (or --validate SWEEP.json)");
   std::vector<int> threads;
   std::vector<std::string> schedulers;
@@ -91,7 +93,8 @@ int PredictCommand::run() {
   }
   Prediction prediction;
   try {
-    prediction = predict(workload, trace_file_.string(), schedulers, threads, overheads);
+    prediction = predict(workload, trace_file_.string(), schedulers, threads,
+                         choose_overheads(given, workload));
   } catch (const std::invalid_argument& error) {
     return bad(fmt::format("--schedulers: {}", error.what()));
   }
@@ -111,7 +114,7 @@ int PredictCommand::run() {
   return 0;
 }
 
-int PredictCommand::run_validation() {
+int PredictCommand::run_validation(const std::optional<OverheadModel>& given) {
   if (trace_dir_.empty() && from_file_.empty()) {
     return bad("--validate: needs --trace-dir DIR (the sweep's --trace DIR) or --from TRACE");
   }
@@ -126,7 +129,7 @@ int PredictCommand::run_validation() {
     validation = validate_prediction(
         sweep, validate_file_.string(), trace_dir_,
         from_file_.empty() ? std::nullopt : std::optional<std::filesystem::path>(from_file_),
-        overheads_file_.empty() ? OverheadModel{} : read_overhead_model(overheads_file_));
+        given);
   } catch (const std::invalid_argument& error) {
     return bad(error.what());
   }

@@ -5,7 +5,10 @@
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
+#include <optional>
 #include <string>
+
+#include "harness/predict/overhead_model.hpp"
 
 namespace clothbench::harness {
 
@@ -23,7 +26,7 @@ class PredictCommand {
   int run();
 
  private:
-  int run_validation();
+  int run_validation(const std::optional<OverheadModel>& given);
 
   CLI::App* command_ = nullptr;
   std::filesystem::path trace_file_;

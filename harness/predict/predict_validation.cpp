@@ -38,10 +38,9 @@ Source load_source(const std::filesystem::path& file) {
 Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
                                const std::filesystem::path& trace_dir,
                                const std::optional<std::filesystem::path>& from,
-                               const OverheadModel& overheads) {
+                               const std::optional<OverheadModel>& overheads) {
   Validation v;
   v.sweep_file = sweep_file;
-  v.overheads = overheads;
   if (sweep.contains("machine") && sweep["machine"].contains("load_average") &&
       !sweep["machine"]["load_average"].empty()) {
     v.machine_load = fmt::format("{:.2f}", sweep["machine"]["load_average"][0].get<double>());
@@ -69,6 +68,8 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
         "--trace-dir: " + trace_dir.string() +
         " holds no 1-thread trace (*-1t.cbtrace; write them with `sweep --trace DIR`)");
   }
+  // The traces of one sweep were written with the same --trace-overheads (or none).
+  v.overheads = choose_overheads(overheads, sources.front()->workload);
   auto choose = [&](schedulers::IterationSpace space) -> const Source* {
     const Source* best = nullptr;
     for (const auto& s : sources) {
@@ -97,7 +98,8 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
       if (source == nullptr) source = sources.front().get();
       const ScheduleModel model =
           ScheduleModel::parse(out.scheduler, runtime_model(source->workload.openmp_runtime));
-      const PredictedRow p = predict_row(source->workload, model, out.threads, overheads);
+      const PredictedRow p = predict_row(source->workload, model, out.threads,
+                                         choose_overheads(overheads, source->workload));
       out.source = source->file.filename().string();
       out.predicted_time = p.time;
       out.predicted_imbalance_percent = p.imbalance_percent;

@@ -38,11 +38,13 @@ struct Validation {
 /// Predicts every row of `sweep` (a loaded sweep document) that has a measured time. The
 /// source trace of a row: `from` when given, else the 1-thread trace in `trace_dir` with the
 /// most chunks over the row's iteration space (the finest per-iteration costs), else one over
-/// blocks. Throws std::invalid_argument when `trace_dir` holds no readable 1-thread trace.
+/// blocks. Costs: `overheads` when given, else each source trace's stored ones, else zero
+/// (Validation::overheads: those of the first row). Throws std::invalid_argument when `trace_dir`
+/// holds no readable 1-thread trace.
 Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
                                const std::filesystem::path& trace_dir,
                                const std::optional<std::filesystem::path>& from,
-                               const OverheadModel& overheads);
+                               const std::optional<OverheadModel>& overheads);
 
 /// Markdown table of the validation, with the mean and largest |error|.
 std::string format_validation_markdown(const Validation& validation);

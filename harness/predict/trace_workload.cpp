@@ -50,6 +50,9 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
     }
     if (m.contains("cpu")) w.machine_cores = m["cpu"].value("cores", 0);
   }
+  if (h.contains("overheads") && h["overheads"].is_object()) {
+    w.stored_overheads = overhead_model_from_json(h["overheads"], name + "'s header");
+  }
   if (h.contains("cost") && h["cost"].is_object()) {
     w.run_seconds = h["cost"].value("run_seconds", 0.0);
   }
@@ -115,6 +118,13 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
   w.busy_seconds = 1e-9 * static_cast<double>(busy_ns);
   w.sequential_seconds = std::max(0.0, w.run_seconds - w.loop_span_seconds);
   return w;
+}
+
+OverheadModel choose_overheads(const std::optional<OverheadModel>& given,
+                               const TraceWorkload& workload) {
+  if (given) return *given;
+  if (workload.stored_overheads) return *workload.stored_overheads;
+  return OverheadModel{};
 }
 
 }  // namespace clothbench::harness

@@ -11,9 +11,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "harness/predict/overhead_model.hpp"
 #include "harness/trace/trace_file.hpp"
 #include "schedulers/loop_driver.hpp"
 
@@ -65,7 +67,14 @@ struct TraceWorkload {
   /// Busy seconds of chunks over blocks without a live element: dropped in the Active-Lists'
   /// space, which never visits those blocks.
   double dropped_for_active_seconds = 0.0;
+  /// The scheduling costs the trace's header stores (`run|sweep --trace-overheads`), if any.
+  std::optional<OverheadModel> stored_overheads;
 };
+
+/// The costs a prediction from `workload` uses: `given` (--overheads) when set, else the
+/// trace's stored ones, else zero (each model's source text says which).
+OverheadModel choose_overheads(const std::optional<OverheadModel>& given,
+                               const TraceWorkload& workload);
 
 /// Builds the workload of `trace`; throws std::invalid_argument naming `name` (the file) when
 /// the trace is inconsistent (a chunk outside its loop, ranges that do not tile a loop).

@@ -13,6 +13,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
 #include "harness/output/vtk_writer.hpp"
+#include "harness/predict/overhead_model.hpp"
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/run/run_summary.hpp"
@@ -50,9 +51,16 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
   }
 }
 
-/// --trace-step needs --trace and a step of the run (std::invalid_argument naming the flag).
-void check_trace_options(const RunOptions& options, int steps) {
-  if (!options.trace_step) return;
+/// --trace-step and --trace-overheads need --trace, --trace-step a step of the run; returns
+/// the header's "overheads" (null without --trace-overheads). Throws std::invalid_argument
+/// naming the flag.
+nlohmann::json check_trace_options(const RunOptions& options, int steps) {
+  nlohmann::json overheads;
+  if (options.trace_overheads) {
+    if (!options.trace_file) throw std::invalid_argument("--trace-overheads: needs --trace FILE");
+    overheads = trace_overheads_header(*options.trace_overheads);
+  }
+  if (!options.trace_step) return overheads;
   if (!options.trace_file) {
     throw std::invalid_argument("--trace-step: needs --trace FILE");
   }
@@ -60,6 +68,7 @@ void check_trace_options(const RunOptions& options, int steps) {
     throw std::invalid_argument(fmt::format("--trace-step: {} is not a step of this run (1..{})",
                                             *options.trace_step, steps));
   }
+  return overheads;
 }
 
 }  // namespace
@@ -101,13 +110,14 @@ int run_scene(const RunOptions& options) {
   Scene scene;
   std::unique_ptr<schedulers::LoopDriver> driver;
   int threads = 0;
+  nlohmann::json trace_overheads;
   try {
     scene = load_scene(options.scene_file, default_presets_file());
     apply_overrides(options, scene);
     check_memory(scene);
     threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
     driver = schedulers::make_driver(options.scheduler);
-    check_trace_options(options, scene.steps);
+    trace_overheads = check_trace_options(options, scene.steps);
   } catch (const SceneError& error) {
     fmt::print(stderr, "clothbench: {}\n", error.what());
     return kExitBadInput;
@@ -167,13 +177,14 @@ int run_scene(const RunOptions& options) {
   document["machine"] = machine_context();
   try {
     if (trace) {
-      const nlohmann::json context = {{"machine", document["machine"]},
-                                      {"scene", scene.name},
-                                      {"scene_file", scene.file.string()},
-                                      {"scheduler", driver->name()},
-                                      {"threads", threads},
-                                      {"steps", summary.steps.size()},
-                                      {"state_digest", fnv1a64_hex(state_bytes(simulation))}};
+      nlohmann::json context = {{"machine", document["machine"]},
+                                {"scene", scene.name},
+                                {"scene_file", scene.file.string()},
+                                {"scheduler", driver->name()},
+                                {"threads", threads},
+                                {"steps", summary.steps.size()},
+                                {"state_digest", fnv1a64_hex(state_bytes(simulation))}};
+      if (!trace_overheads.is_null()) context["overheads"] = trace_overheads;
       write_trace_outputs(*trace, *options.trace_file, context, summary.wall_seconds,
                           options.trace_step);
     }

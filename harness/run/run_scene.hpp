@@ -26,6 +26,9 @@ struct RunOptions {
   std::optional<std::filesystem::path> trace_file;
   /// --trace-step N: the step of the trace's timeline picture (default: most chunks).
   std::optional<int> trace_step;
+  /// --trace-overheads FILE: the scheduling_overhead micro-benchmark's JSON, whose per-loop
+  /// and per-chunk costs go into the trace header for `clothbench predict`.
+  std::optional<std::filesystem::path> trace_overheads;
 };
 
 /// Runs the scene and prints per-step cost, final summary and `Verification: PASSED/FAILED`.

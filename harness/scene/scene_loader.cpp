@@ -198,8 +198,8 @@ void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   reader.allow_only({"formulation", "gradient", "kernel", "method", "preconditioner", "line_solves",
                      "tolerance", "max_iterations", "max_newton_iterations",
-                     "max_linear_iterations", "numeric_step", "weights", "stretch_reference_fm",
-                     "time_budget_s"});
+                     "max_linear_iterations", "smoothing_sweeps", "smoothing_threshold", "coarsest_nodes",
+                     "numeric_step", "weights", "stretch_reference_fm", "time_budget_s"});
   if (auto v = reader.choice("formulation", {"potential", "violation"})) {
     solver.formulation =
         *v == "violation" ? kernels::Formulation::violation : kernels::Formulation::potential;
@@ -241,6 +241,15 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   }
   if (auto v = reader.integer("max_linear_iterations", 1, std::numeric_limits<int>::max())) {
     solver.max_linear_iterations = static_cast<int>(*v);
+  }
+  if (auto v = reader.integer("smoothing_sweeps", 0, 1000)) {
+    solver.smoothing_sweeps = static_cast<int>(*v);
+  }
+  if (auto v = reader.number("smoothing_threshold", NumberRange::positive(), "multiples of tolerance")) {
+    solver.smoothing_threshold = *v;
+  }
+  if (auto v = reader.integer("coarsest_nodes", 1, std::numeric_limits<std::int32_t>::max())) {
+    solver.coarsest_nodes = *v;
   }
   if (auto v = reader.number("numeric_step", NumberRange::positive())) solver.numeric_step = *v;
   if (auto v = reader.number("stretch_reference_fm", NumberRange::non_negative(), "0 = m g / h")) {

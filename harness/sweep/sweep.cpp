@@ -11,6 +11,7 @@
 
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
+#include "harness/predict/overhead_model.hpp"
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/report/sweep_table.hpp"
@@ -55,7 +56,7 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
 /// final state equals the sweep's reference bit for bit.
 void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads,
                     const std::string& reference_bytes, const std::filesystem::path& dir,
-                    bool quiet) {
+                    const json& overheads, bool quiet) {
   omp_set_num_threads(threads);
   kernels::Simulation simulation(scene.simulation);
   kernels::ChunkTrace trace;
@@ -70,14 +71,15 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
     if (c == ':' || c == '@') c = '_';
   }
   const std::string bytes = state_bytes(simulation);
-  const nlohmann::json context = {{"machine", machine_context()},
-                                  {"scene", scene.name},
-                                  {"scene_file", scene.file.string()},
-                                  {"scheduler", driver.name()},
-                                  {"threads", threads},
-                                  {"steps", scene.steps},
-                                  {"state_digest", fnv1a64_hex(bytes)},
-                                  {"bit_identical_to_reference", bytes == reference_bytes}};
+  nlohmann::json context = {{"machine", machine_context()},
+                            {"scene", scene.name},
+                            {"scene_file", scene.file.string()},
+                            {"scheduler", driver.name()},
+                            {"threads", threads},
+                            {"steps", scene.steps},
+                            {"state_digest", fnv1a64_hex(bytes)},
+                            {"bit_identical_to_reference", bytes == reference_bytes}};
+  if (!overheads.is_null()) context["overheads"] = overheads;
   write_trace_outputs(trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context, seconds,
                       std::nullopt, quiet);
 }
@@ -162,6 +164,11 @@ int run_sweep(const SweepOptions& options) {
   const std::vector<int> threads =
       options.threads.empty() ? default_thread_counts(binder.cores()) : options.threads;
   for (int n : threads) resolve_threads(n, options.allow_oversubscribe, "--threads");
+  json trace_overheads;  // the traces' header "overheads" (null: none given)
+  if (options.trace_overheads) {
+    if (!options.trace_dir) throw std::invalid_argument("--trace-overheads: needs --trace DIR");
+    trace_overheads = trace_overheads_header(*options.trace_overheads);
+  }
   const int hardware = hardware_threads();
   const std::filesystem::path json_file = options.output_dir / "sweep.json";
 
@@ -275,7 +282,8 @@ int run_sweep(const SweepOptions& options) {
       }
     }
     if (options.trace_dir) {
-      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, options.quiet);
+      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, trace_overheads,
+                     options.quiet);
       if (stop.signal() != 0) return std::nullopt;
     }
     json binding = {{"mode", to_string(options.bind)},

@@ -40,6 +40,9 @@ struct SweepOptions {
   bool plots = true;                 ///< run gnuplot at the end
   /// --trace DIR: one extra traced run per row, DIR/<scheduler>-<threads>t.cbtrace (+ timeline)
   std::optional<std::filesystem::path> trace_dir;
+  /// --trace-overheads FILE: scheduling costs copied into every trace's header (predict uses
+  /// them); see harness/predict/overhead_model.hpp.
+  std::optional<std::filesystem::path> trace_overheads;
   std::filesystem::path output_dir = "results/latest";
   std::vector<std::string> command_line;  ///< argv, recorded in the result
 };

@@ -194,16 +194,19 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWh
   const Outcome old_name = run(common + " --preconditioner lines");
   EXPECT_EQ(old_name.exit_code, 2) << old_name.output;
   EXPECT_THAT(old_name.output, HasSubstr("--preconditioner"));
-  // The multigrid preconditions Newton's inner PCG only.
-  const Outcome no_multigrid = run(common + " --preconditioner multigrid");
-  EXPECT_EQ(no_multigrid.exit_code, 2) << no_multigrid.output;
-  EXPECT_THAT(no_multigrid.output,
-              HasSubstr("solver.preconditioner: the multigrid preconditioner preconditions "
-                        "Newton's inner linear PCG"));
-  const Outcome multigrid = run(common + " --method newton --preconditioner multigrid");
-  ASSERT_EQ(multigrid.exit_code, 0) << multigrid.output;
-  EXPECT_THAT(multigrid.output, HasSubstr("method newton, preconditioner multigrid\n"));
-  EXPECT_THAT(multigrid.output, HasSubstr("\nVerification: PASSED"));
+  // The multigrids precondition Newton's inner PCG only.
+  for (const char* multigrid : {"multigrid", "v-cycle"}) {
+    const std::string name = multigrid;
+    const Outcome refused_alone = run(common + " --preconditioner " + name);
+    EXPECT_EQ(refused_alone.exit_code, 2) << refused_alone.output;
+    EXPECT_THAT(refused_alone.output,
+                HasSubstr("solver.preconditioner: the " + name +
+                          " preconditioner preconditions Newton's inner linear PCG"));
+    const Outcome with_newton = run(common + " --method newton --preconditioner " + name);
+    ASSERT_EQ(with_newton.exit_code, 0) << with_newton.output;
+    EXPECT_THAT(with_newton.output, HasSubstr("method newton, preconditioner " + name + "\n"));
+    EXPECT_THAT(with_newton.output, HasSubstr("\nVerification: PASSED"));
+  }
 }
 
 TEST_F(BadInputBinary, ThreadsAboveTheHardwareNeedOversubscribeAndAreLabelled) {

@@ -88,28 +88,34 @@ void expect_finite_numbers(const json& b) {
   }
 }
 
-/// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) counted the chunks
-/// their per-chunk figure divides by exactly: ceil(n / k) for dynamic:k, one per thread for
+/// The scheduling-overhead benchmarks of `d` (a JSON run at `threads` threads) ran at 1 thread
+/// and at `threads` (static@blocks at both), and counted the chunks their per-chunk figure
+/// divides by exactly: ceil(n / k) for dynamic:k, one per thread for
 /// static and active-lists, the same count in every loop of those, and the per-chunk overhead is
 /// the per-loop overhead over one thread's share of them.
 void expect_exact_chunk_counts(const json& d, int threads) {
   int dynamic_checked = 0;
+  std::set<int> static_team_sizes;
   for (const json& b : d["benchmarks"]) {
     const std::string name = b["name"];
     if (name.rfind("scheduling_overhead/", 0) == 0) {
-      EXPECT_EQ(b["threads"].get<double>(), threads) << name;
+      // Every scheduler runs at 1 thread and at the run's team size (`.../threads:T/`).
+      const int team = static_cast<int>(b["threads"].get<double>());
+      EXPECT_TRUE(team == 1 || team == threads) << name;
+      EXPECT_NE(name.find("/threads:" + std::to_string(team) + "/"), std::string::npos) << name;
+      if (name.rfind("scheduling_overhead/static@blocks/", 0) == 0) static_team_sizes.insert(team);
       const auto n = static_cast<long long>(b["iterations_per_loop"].get<double>());
       const auto chunks = static_cast<long long>(b["chunks_per_loop"].get<double>());
-      EXPECT_EQ(n, 1024LL * threads) << name;
+      EXPECT_EQ(n, 1024LL * team) << name;
       // The core-to-core round trip is measured with a pair of threads on separate cores only.
       for (const char* key : {"core_round_trip_ns_before", "core_round_trip_ns_after"}) {
-        if (threads >= 2 && std::thread::hardware_concurrency() >= 2) {
+        if (team >= 2 && std::thread::hardware_concurrency() >= 2) {
           EXPECT_GT(b[key].get<double>(), 0.0) << name << ": " << key;
         } else {
           EXPECT_EQ(b[key].get<double>(), 0.0) << name << ": " << key;
         }
       }
-      const double per_thread = std::max(1.0, static_cast<double>(chunks) / threads);
+      const double per_thread = std::max(1.0, static_cast<double>(chunks) / team);
       EXPECT_NEAR(b["overhead_chunk_ns"].get<double>(),
                   b["overhead_loop_us"].get<double>() * 1e3 / per_thread,
                   1e-9 * std::abs(b["overhead_loop_us"].get<double>() * 1e3) + 1e-12)
@@ -123,7 +129,7 @@ void expect_exact_chunk_counts(const json& d, int threads) {
       }
       if (name.rfind("scheduling_overhead/static@blocks/", 0) == 0 ||
           name.rfind("scheduling_overhead/active-lists@active/", 0) == 0) {
-        EXPECT_EQ(chunks, threads) << name;
+        EXPECT_EQ(chunks, team) << name;
         EXPECT_EQ(b["chunk_count_constant"].get<double>(), 1.0) << name;
       }
     }
@@ -137,6 +143,8 @@ void expect_exact_chunk_counts(const json& d, int threads) {
     }
   }
   EXPECT_GE(dynamic_checked, 4) << "dynamic:1, 2, 3 and the dynamic:k comparison ran";
+  const std::set<int> both = threads > 1 ? std::set<int>{1, threads} : std::set<int>{1};
+  EXPECT_EQ(static_team_sizes, both) << "static@blocks at 1 thread and at the run's team size";
 }
 
 TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {

@@ -8,7 +8,10 @@
 //    (static, active-lists), the same chunk ranges where threads race for them (fac2, tss,
 //    gss, dynamic:2);
 //  - `clothbench predict` prints a labelled Table 2 and refuses bad input naming the flag or
-//    file with exit code 2; `--validate` predicts the rows of a sweep from its traces.
+//    file with exit code 2; `--validate` predicts the rows of a sweep from its traces;
+//  - `sweep --trace DIR --trace-overheads FILE` stores the scheduling costs in each trace's
+//    header, which reads back to the same model, and `predict` uses them (and says so) when no
+//    --overheads is given; bad --trace-overheads input is refused naming the flag, exit 2.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -29,36 +32,15 @@
 #include "harness/trace/trace_file.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/registry.hpp"
+#include "tests/harness/adaptive_sheet_scene.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
 namespace clothbench {
 namespace {
 
 namespace fs = std::filesystem;
+using clothbench_test::adaptive_sheet_on_box;
 using ::testing::HasSubstr;
-
-/// A 17 x 17 sheet on a box, in 4 x 4 blocks, with two AMRC levels checked every step (as in
-/// integration_trace.cpp): blocks with inactive elements, lists with empty tiles.
-kernels::SimulationConfig adaptive_sheet_on_box() {
-  kernels::SimulationConfig c;
-  c.cloth.particles_i = 17;
-  c.cloth.particles_j = 17;
-  c.cloth.block_size = 4;
-  c.cloth.size_i = c.cloth.size_j = 0.2;
-  c.cloth.origin = {-0.1, -0.1, 2.0 * c.contact.distance};
-  c.cloth.initial_crumple = 0.0;
-  kernels::ObstacleConfig box;
-  box.kind = kernels::ObstacleKind::box;
-  box.center = {0.0, 0.0, -0.1};
-  box.half_extents = {0.05, 0.05, 0.1};
-  c.obstacles.push_back(box);
-  c.amrc.enabled = true;
-  c.amrc.levels = 2;
-  c.amrc.check_every = 1;
-  c.solver.max_iterations = 12;
-  c.solver.max_step_halvings = 0;
-  return c;
-}
 
 /// A traced run of 3 steps, its header holding the machine context (the OpenMP runtime).
 harness::TraceDocument traced_run(const std::string& scheduler, int threads) {
@@ -230,6 +212,98 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
   EXPECT_THAT(out.output,
               HasSubstr("| active-lists@active | 2 | active-lists_active-1t.cbtrace |"));
   EXPECT_THAT(out.output, HasSubstr("6 rows: mean |error|"));
+}
+
+/// A scheduling_overhead JSON as clothbench-micro writes it, with figures chosen here:
+/// static@blocks 1 us per loop at 1 thread and 5 us at 2 (4 us beyond 1 thread).
+fs::path synthetic_overheads(const fs::path& dir) {
+  fs::create_directories(dir);
+  const fs::path file = dir / "overheads.json";
+  std::ofstream(file) << R"({"benchmarks": [
+    {"name": "scheduling_overhead/static@blocks/threads:1/iterations:30/real_time", "threads": 1,
+     "overhead_loop_us_median": 1.0, "chunks_per_loop": 1},
+    {"name": "scheduling_overhead/static@blocks/threads:2/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 5.0, "chunks_per_loop": 2}]})";
+  return file;
+}
+
+TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
+  const fs::path dir = clothbench_test::fresh_dir("predict_stored_overheads");
+  const fs::path overheads = synthetic_overheads(dir);
+  const auto sweep = clothbench_test::run(
+      "sweep " +
+      clothbench_test::quote(std::string(CLOTHBENCH_SOURCE_DIR) +
+                             "/tests/data/scenes/sweep-tiny.toml") +
+      " --schedulers static --threads 1 --repeat 1 --retries 0 --steps 2 --no-plots --quiet "
+      "--out " +
+      clothbench_test::quote((dir / "out").string()) + " --trace " +
+      clothbench_test::quote((dir / "traces").string()) + " --trace-overheads " +
+      clothbench_test::quote(overheads.string()));
+  ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
+  const fs::path trace = dir / "traces" / "static_blocks-1t.cbtrace";
+  // The header holds the model as read from the file, and reads back to the same figures.
+  const harness::TraceDocument document = harness::read_trace(trace);
+  ASSERT_TRUE(document.header.contains("overheads")) << document.header.dump();
+  EXPECT_NEAR(document.header["overheads"]["loop_seconds"].get<double>(), 4e-6, 1e-15);
+  EXPECT_EQ(document.header["overheads"]["measured_threads"], 2);
+  const harness::TraceWorkload w = harness::build_workload(document, trace.string());
+  ASSERT_TRUE(w.stored_overheads.has_value());
+  EXPECT_NEAR(w.stored_overheads->loop_seconds, 4e-6, 1e-15);
+
+  // predict without --overheads takes them from the header and says so; the 2-thread time
+  // holds 4 us per loop instance more than the zero-overhead prediction's.
+  const fs::path with = dir / "stored.json";
+  const auto out = clothbench_test::run("predict " + clothbench_test::quote(trace.string()) +
+                                        " --threads 2 --schedulers static --json " +
+                                        clothbench_test::quote(with.string()));
+  ASSERT_EQ(out.exit_code, 0) << out.output;
+  EXPECT_THAT(out.output,
+              HasSubstr("static_blocks-1t.cbtrace's header, copied from " + overheads.string()));
+  const harness::OverheadModel zero;
+  const harness::Prediction p = harness::predict(w, trace.string(), {"static"}, {2}, zero);
+  const auto stored = clothbench_test::read_json(with);
+  EXPECT_NEAR(stored["rows"][0]["time_seconds"].get<double>(),
+              p.rows[0].time + 4e-6 * static_cast<double>(w.loops.size()), 1e-9);
+  // --overheads wins over the header.
+  const auto given = clothbench_test::run("predict " + clothbench_test::quote(trace.string()) +
+                                          " --threads 2 --schedulers static --overheads " +
+                                          clothbench_test::quote(overheads.string()));
+  ASSERT_EQ(given.exit_code, 0) << given.output;
+  EXPECT_THAT(given.output, HasSubstr("Overheads: " + overheads.string() + ": "));
+
+  // Bad input: a missing file or one without the 1-thread figures, and the flag without
+  // --trace, name the flag; exit 2.
+  std::ofstream(dir / "two_only.json") << R"({"benchmarks": [
+    {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 5.0, "chunks_per_loop": 2}]})";
+  const std::string scene = clothbench_test::quote(std::string(CLOTHBENCH_SOURCE_DIR) +
+                                                   "/tests/data/scenes/sweep-tiny.toml");
+  const std::string run_out =
+      " --no-vtk --quiet --steps 1 --out " + clothbench_test::quote((dir / "runs").string());
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"run " + scene + run_out + " --trace " +
+           clothbench_test::quote((dir / "r.cbtrace").string()) + " --trace-overheads " +
+           clothbench_test::quote((dir / "none.json").string()),
+       "none.json"},
+      {"run " + scene + run_out + " --trace " +
+           clothbench_test::quote((dir / "r.cbtrace").string()) + " --trace-overheads " +
+           clothbench_test::quote((dir / "two_only.json").string()),
+       "at 2 threads only"},
+      {"run " + scene + run_out + " --trace-overheads " +
+           clothbench_test::quote(overheads.string()),
+       "needs --trace"},
+      {"sweep " + scene + " --threads 1 --schedulers static --quiet --no-plots --out " +
+           clothbench_test::quote((dir / "s").string()) + " --trace-overheads " +
+           clothbench_test::quote(overheads.string()),
+       "needs --trace"},
+  };
+  for (const auto& [arguments, expected] : cases) {
+    const auto bad = clothbench_test::run(arguments);
+    EXPECT_EQ(bad.exit_code, 2) << arguments << "\n" << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr("--trace-overheads")) << arguments;
+    EXPECT_THAT(bad.output, HasSubstr(expected)) << arguments;
+  }
+  EXPECT_FALSE(fs::exists(dir / "r.cbtrace")) << "no trace is written from bad input";
 }
 
 }  // namespace

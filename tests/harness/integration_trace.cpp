@@ -32,38 +32,17 @@
 #include "harness/trace/trace_timeline.hpp"
 #include "kernels/simulation.hpp"
 #include "schedulers/registry.hpp"
+#include "tests/harness/adaptive_sheet_scene.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
 namespace clothbench {
 namespace {
 
 namespace fs = std::filesystem;
+using clothbench_test::adaptive_sheet_on_box;
 using ::testing::HasSubstr;
 
 constexpr int kSteps = 3;
-
-/// A 17 x 17 sheet on a box, in 4 x 4 blocks, with two AMRC levels checked every step: the
-/// lists have tiles without entries and the blocks have inactive elements.
-kernels::SimulationConfig adaptive_sheet_on_box() {
-  kernels::SimulationConfig c;
-  c.cloth.particles_i = 17;
-  c.cloth.particles_j = 17;
-  c.cloth.block_size = 4;
-  c.cloth.size_i = c.cloth.size_j = 0.2;
-  c.cloth.origin = {-0.1, -0.1, 2.0 * c.contact.distance};
-  c.cloth.initial_crumple = 0.0;
-  kernels::ObstacleConfig box;
-  box.kind = kernels::ObstacleKind::box;
-  box.center = {0.0, 0.0, -0.1};
-  box.half_extents = {0.05, 0.05, 0.1};
-  c.obstacles.push_back(box);
-  c.amrc.enabled = true;
-  c.amrc.levels = 2;
-  c.amrc.check_every = 1;
-  c.solver.max_iterations = 12;
-  c.solver.max_step_halvings = 0;
-  return c;
-}
 
 /// One run: the final state's digest and, when traced, the trace as the file holds it.
 struct Traced {

@@ -1,7 +1,9 @@
 // The schedule predictor (harness/predict, issue 17) on synthetic traces with answers worked
 // out by hand: uniform work under static, one heavy iteration under static and dynamic:1,
 // dispatch costs per chunk, sequential time, the blocks-to-Active-Lists conversion, the
-// overheads file of the scheduling-overhead micro-benchmark, and specs it refuses.
+// overheads file of the scheduling-overhead micro-benchmark (what P threads cost beyond 1
+// thread, added above 1 thread only, and its stored form), and specs it refuses.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -126,14 +128,16 @@ TEST(Predict, DispatchCostIsPaidOncePerChunk) {
   overheads.measured = true;
   overheads.dispatch_seconds["dynamic:1@blocks"] = 10e-6;
   overheads.loop_seconds = 3e-6;
+  // At 1 thread nothing is added: the trace's times already hold the 1-thread costs, and the
+  // model's figures are what more threads cost beyond them.
   const auto one = row(w, "dynamic:1", 1, overheads);
-  EXPECT_NEAR(one.time, 6 * kMs + 6 * 10e-6 + 3e-6, 1e-12);
+  EXPECT_NEAR(one.time, 6 * kMs, 1e-12);
   EXPECT_EQ(one.chunks, 6);
   const auto two = row(w, "dynamic:1", 2, overheads);
   EXPECT_NEAR(two.time, 3 * kMs + 3 * 10e-6 + 3e-6, 1e-12);
   EXPECT_NEAR(two.parallel_overhead, 3 * 10e-6 + 3e-6, 1e-12);
-  // dynamic:3 takes its dispatch figure from dynamic:1 (same kind): 2 chunks at 1 thread.
-  EXPECT_NEAR(row(w, "dynamic:3", 1, overheads).time, 6 * kMs + 2 * 10e-6 + 3e-6, 1e-12);
+  // dynamic:3 takes its dispatch figure from dynamic:1 (same kind): 1 chunk per thread at 2.
+  EXPECT_NEAR(row(w, "dynamic:3", 2, overheads).time, 3 * kMs + 1 * 10e-6 + 3e-6, 1e-12);
 }
 
 TEST(Predict, ChunksOverSeveralIterationsSpreadEvenly) {
@@ -183,26 +187,70 @@ TEST(Predict, RefusesWhatItCannotReplay) {
   EXPECT_THROW(harness::build_workload(t, "gap"), std::invalid_argument);
 }
 
-TEST(Predict, OverheadsComeFromTheMicroBenchmarkJson) {
+TEST(Predict, OverheadsAreWhatPThreadsCostBeyondOneThread) {
   const auto dir = clothbench_test::fresh_dir("predict_overheads");
   std::filesystem::create_directories(dir);
   const auto file = dir / "overheads.json";
+  // static@blocks: 1.5 us per loop at 1 thread, 4 us at 2. dynamic:1: 3.5 us per loop and 1024
+  // chunks at 1 thread (dispatch (3.5 - 1.5) us / 1024), 24.48 us per loop and 2048 chunks at 2
+  // (dispatch (24.48 - 4) us / 1024): per chunk beyond 1 thread 18.48 us / 1024.
   std::ofstream(file) << R"({"benchmarks": [
-    {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
-     "overhead_loop_us_median": 2.0, "chunks_per_loop": 2},
-    {"name": "scheduling_overhead/dynamic:1@blocks/iterations:30/real_time", "threads": 2,
-     "overhead_loop_us_median": 12.0, "chunks_per_loop": 2048},
-    {"name": "scheduling_overhead/fac2:1@blocks/iterations:30/real_time", "threads": 2,
+    {"name": "scheduling_overhead/static@blocks/threads:1/iterations:30/real_time", "threads": 1,
+     "overhead_loop_us_median": 1.5, "chunks_per_loop": 1},
+    {"name": "scheduling_overhead/static@blocks/threads:2/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 4.0, "chunks_per_loop": 2},
+    {"name": "scheduling_overhead/dynamic:1@blocks/threads:1/iterations:30/real_time",
+     "threads": 1, "overhead_loop_us_median": 3.5, "chunks_per_loop": 1024},
+    {"name": "scheduling_overhead/dynamic:1@blocks/threads:2/iterations:30/real_time",
+     "threads": 2, "overhead_loop_us_median": 24.48, "chunks_per_loop": 2048},
+    {"name": "scheduling_overhead/guided:1@blocks/threads:2/iterations:30/real_time",
+     "threads": 2, "overhead_loop_us_median": 9.0, "chunks_per_loop": 2048},
+    {"name": "scheduling_overhead/fac2:1@blocks/threads:1/iterations:30/real_time", "threads": 1,
+     "overhead_loop_us_median": 2.0, "chunks_per_loop": 11},
+    {"name": "scheduling_overhead/fac2:1@blocks/threads:2/iterations:30/real_time", "threads": 2,
      "overhead_loop_us_median": 30000.0, "chunks_per_loop": 22, "disturbed": 1}]})";
   const OverheadModel m = harness::read_overhead_model(file);
-  EXPECT_NEAR(m.loop_seconds, 2e-6, 1e-15);
   EXPECT_EQ(m.measured_threads, 2);
-  // (12 - 2) us over 1024 chunks per thread.
-  EXPECT_NEAR(m.dispatch("dynamic:1@blocks"), 10e-6 / 1024, 1e-15);
-  EXPECT_NEAR(m.dispatch("dynamic:2@blocks"), 10e-6 / 1024, 1e-15);
-  EXPECT_EQ(m.dispatch("fac2:1@blocks"), 0.0);  // its result was disturbed: not used
-  EXPECT_EQ(m.dispatch("tss:1@blocks"), 0.0);   // not measured
+  EXPECT_NEAR(m.loop_seconds, 2.5e-6, 1e-15);
+  EXPECT_NEAR(m.loop_seconds_at_one, 1.5e-6, 1e-15);
+  EXPECT_NEAR(m.loop_seconds_at_measured, 4e-6, 1e-15);
+  EXPECT_NEAR(m.dispatch("dynamic:1@blocks"), 18.48e-6 / 1024, 1e-15);
+  EXPECT_NEAR(m.dispatch("dynamic:2@blocks"), 18.48e-6 / 1024, 1e-15);  // same kind
+  EXPECT_EQ(m.dispatch("guided:1@blocks"), 0.0);  // measured at 2 threads only: not used
+  EXPECT_EQ(m.dispatch("fac2:1@blocks"), 0.0);    // disturbed at 2 threads: not used
+  EXPECT_EQ(m.dispatch("tss:1@blocks"), 0.0);     // not measured
   EXPECT_EQ(m.disturbed, std::vector<std::string>{"fac2:1@blocks"});
+  EXPECT_THAT(m.source, ::testing::HasSubstr("minus those at 1 thread"));
+  EXPECT_THAT(m.source, ::testing::HasSubstr("one team size only, not used: guided:1@blocks"));
+
+  // A 1-thread trace of 8 blocks of 1 ms: at 1 thread exactly its busy time, at 2 threads
+  // 4 blocks each plus 4 dispatches and one loop's cost beyond 1 thread.
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(8, 1.0)}, 0.0), "synthetic");
+  EXPECT_NEAR(row(w, "dynamic:1", 1, m).time, 8 * kMs, 1e-12);
+  EXPECT_NEAR(row(w, "dynamic:1", 2, m).time, 4 * kMs + 4 * 18.48e-6 / 1024 + 2.5e-6, 1e-12);
+
+  // The stored form (a trace header's "overheads") gives the same model back.
+  const OverheadModel back =
+      harness::overhead_model_from_json(harness::overhead_model_json(m), "T's header");
+  EXPECT_EQ(back.measured_threads, 2);
+  EXPECT_DOUBLE_EQ(back.loop_seconds, m.loop_seconds);
+  EXPECT_EQ(back.dispatch_seconds, m.dispatch_seconds);
+  EXPECT_EQ(back.disturbed, m.disturbed);
+  EXPECT_THAT(back.source, ::testing::HasSubstr("T's header, copied from " + file.string()));
+  EXPECT_THROW(harness::overhead_model_from_json({{"loop_seconds", "x"}}, "T"),
+               std::invalid_argument);
+
+  // Only one team size: no difference to take.
+  std::ofstream(dir / "two_only.json") << R"({"benchmarks": [
+    {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 4.0, "chunks_per_loop": 2}]})";
+  try {
+    (void)harness::read_overhead_model(dir / "two_only.json");
+    ADD_FAILURE() << "a file with one team size was accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(), ::testing::HasSubstr("at 2 threads only"));
+  }
   std::ofstream(dir / "empty.json") << R"({"benchmarks": []})";
   EXPECT_THROW(harness::read_overhead_model(dir / "empty.json"), std::invalid_argument);
   EXPECT_THROW(harness::read_overhead_model(dir / "missing.json"), std::invalid_argument);

@@ -10,6 +10,7 @@
 
 #include "harness/scene/scene.hpp"
 #include "kernels/simulation.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 
 namespace {
 
@@ -327,8 +328,9 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   EXPECT_EQ(defaults.method, StepMethod::nonlinear_cg);
   EXPECT_EQ(defaults.preconditioner, Preconditioner::block_jacobi);
   for (const std::string& name : clothbench::kernels::preconditioner_names()) {
-    // The multigrid preconditions Newton's inner PCG only.
-    const std::string method = name == "multigrid" ? "method = \"newton\"\n" : "";
+    // The multigrids precondition Newton's inner PCG only.
+    const std::string method =
+        name == "multigrid" || name == "v-cycle" ? "method = \"newton\"\n" : "";
     const std::string text =
         "[cloth]\nparticles = [9, 9]\n[solver]\n" + method + "preconditioner = \"" + name + "\"\n";
     const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
@@ -342,6 +344,17 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
     EXPECT_EQ(solver.max_newton_iterations, 7);
     EXPECT_EQ(solver.max_linear_iterations, 11);
   }
+  const kernels::SolverConfig smoothing =
+      parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"newton\"\n"
+                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\n"
+                  "preconditioner = \"v-cycle\"\ncoarsest_nodes = 40\n",
+                  "solver.toml", kPresets)
+          .simulation.solver;
+  EXPECT_EQ(smoothing.smoothing_sweeps, 4);
+  EXPECT_EQ(smoothing.smoothing_threshold, 0.5);
+  EXPECT_EQ(smoothing.preconditioner, kernels::Preconditioner::vcycle);
+  EXPECT_EQ(smoothing.coarsest_nodes, 40);
+  EXPECT_EQ(kernels::SolverConfig{}.coarsest_nodes, kernels::VcyclePreconditioner::kCoarsestNodes);
 }
 
 TEST(SceneLoader, OldPreconditionerBooleansAreRefusedWithWhatToWrite) {
@@ -376,7 +389,7 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
     std::string message;
     kernels::SimulationConfig config;  ///< the same settings handed to the kernel
   };
-  std::vector<Case> cases(3);
+  std::vector<Case> cases(4);
   cases[0].text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"multigrid\"\n";
   cases[0].message =
       "solver.toml:4:18: [solver] preconditioner: the multigrid preconditioner preconditions "
@@ -399,6 +412,11 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
   cases[2].config.cloth.particles_i = cases[2].config.cloth.particles_j = 2;
   cases[2].config.solver.method = kernels::StepMethod::newton;
   cases[2].config.solver.preconditioner = kernels::Preconditioner::multigrid;
+  cases[3].text = "[cloth]\nparticles = [9, 9]\n[solver]\nsmoothing_sweeps = 2\n";
+  cases[3].message =
+      "solver.toml:4:20: [solver] smoothing_sweeps: the nonlinear smoothing runs after each of "
+      "Newton's line searches";
+  cases[3].config.solver.smoothing_sweeps = 2;
   for (const Case& c : cases) {
     try {
       (void)parse_scene(c.text, "solver.toml", kPresets);

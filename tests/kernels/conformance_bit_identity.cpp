@@ -27,6 +27,8 @@ struct Case {
   bool line_solves = false;  ///< the line-solve preconditioner instead of block Jacobi
   bool newton = false;       ///< Newton with linear PCG instead of nonlinear CG
   bool multigrid = false;    ///< Newton's PCG preconditioned by the multigrid
+  bool smoothing = false;    ///< Newton with nonlinear block Gauss-Seidel after each line search
+  bool vcycle = false;       ///< Newton's PCG preconditioned by the V-cycle
   bool vector = false;       ///< the vector element kernel (ElementKernel::vector)
 };
 
@@ -79,10 +81,23 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   if (test_case.vector) c.solver.kernel = kernels::ElementKernel::vector;
   if (test_case.line_solves) c.solver.preconditioner = kernels::Preconditioner::line_solves;
   if (test_case.multigrid) c.solver.preconditioner = kernels::Preconditioner::multigrid;
+  if (test_case.vcycle) {
+    // Three levels or more on these small meshes: the line sweeps of every level and the
+    // coarsest solve all run.
+    c.solver.preconditioner = kernels::Preconditioner::vcycle;
+    c.solver.coarsest_nodes = 30;
+  }
   if (test_case.newton) {
     c.solver.method = kernels::StepMethod::newton;
     c.solver.max_newton_iterations = 6;
     c.solver.max_linear_iterations = 20;
+    c.solver.smoothing_sweeps = 0;  // Newton's own path; the smoothing cases add it
+    if (test_case.smoothing) {
+      // Colour by colour over the ghosts of the AMRC case; a low threshold so that most
+      // particles move in every sweep.
+      c.solver.smoothing_sweeps = 2;
+      c.solver.smoothing_threshold = 1e-3;
+    }
     if (test_case.multigrid) {
       // Without AMRC its steps are halved up to 9 times (line solves: 4), each sub-step with
       // more loops and barriers: one halving still runs the rejection path.
@@ -187,8 +202,12 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, true, true, true, true},
                                            Case{kernels::Formulation::potential, false, false, false, true, true},
                                            Case{kernels::Formulation::potential, true, true, false, true, true},
-                                           Case{kernels::Formulation::potential, false, false, false, false, false, true},
-                                           Case{kernels::Formulation::potential, true, true, false, false, false, true}),
+                                           Case{kernels::Formulation::potential, false, false, true, true, false, true},
+                                           Case{kernels::Formulation::potential, true, true, true, true, false, true},
+                                           Case{kernels::Formulation::potential, false, false, false, true, false, true, true},
+                                           Case{kernels::Formulation::potential, true, true, false, true, false, true, true},
+                                           Case{kernels::Formulation::potential, false, false, false, false, false, false, false, true},
+                                           Case{kernels::Formulation::potential, true, true, false, false, false, false, false, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
@@ -197,6 +216,8 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                            if (info.param.events) name += "_events";
                            if (info.param.line_solves) name += "_lines";
                            if (info.param.multigrid) name += "_multigrid";
+                           if (info.param.smoothing) name += "_smoothing";
+                           if (info.param.vcycle) name += "_vcycle";
                            if (info.param.vector) name += "_vector";
                            return info.param.newton ? name + "_newton" : name;
                          });

@@ -38,7 +38,8 @@ kernels::SimulationConfig stretched_sheet(int n, Preconditioner preconditioner) 
 
 /// A graded AMRC cloth (coarse cells beside fine ones: ghosts) with pins, obstacles in contact
 /// and a random state.
-kernels::SimulationConfig graded_cloth(bool pins) {
+kernels::SimulationConfig graded_cloth(bool pins,
+                                       Preconditioner preconditioner = Preconditioner::multigrid) {
   kernels::SimulationConfig c = testing::small_cloth(true, pins);
   c.cloth.particles_i = 17;
   c.cloth.particles_j = 9;
@@ -46,7 +47,7 @@ kernels::SimulationConfig graded_cloth(bool pins) {
   c.amrc.enabled = true;
   c.amrc.levels = 3;
   c.solver.method = kernels::StepMethod::newton;
-  c.solver.preconditioner = Preconditioner::multigrid;
+  c.solver.preconditioner = preconditioner;
   return c;
 }
 
@@ -92,7 +93,9 @@ struct Fixture {
   std::vector<double> precondition(const std::vector<double>& r) {
     std::vector<double> z(r.size(), 0.0);
     run([&](kernels::LoopRunner& lr) {
-      if (objective.multigrid() != nullptr) {
+      if (objective.vcycle() != nullptr) {
+        objective.vcycle()->apply(lr, ctx, r, z);
+      } else if (objective.multigrid() != nullptr) {
         objective.multigrid()->apply(lr, ctx, *objective.line_preconditioner(), r, z);
       } else {
         objective.line_preconditioner()->apply(lr, ctx, r, z);
@@ -119,6 +122,19 @@ double dot(const std::vector<double>& a, const std::vector<double>& b) {
   double sum = 0.0;
   for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
   return sum;
+}
+
+/// x . B y = y . B x and x . B x > 0 for four pairs of random vectors on the free particles.
+void expect_symmetric_positive(Fixture& f, unsigned seed) {
+  for (unsigned k = 0; k < 4; ++k) {
+    const std::vector<double> x = f.random_free(100 * seed + 2 * k);
+    const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
+    const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
+    const double xby = dot(x, by), ybx = dot(y, bx);
+    EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
+    EXPECT_GT(dot(x, bx), 0.0);
+    EXPECT_GT(dot(y, by), 0.0);
+  }
 }
 
 /// Linear PCG on the kernel's model Hessian with the objective's own preconditioner, to a
@@ -273,16 +289,105 @@ TEST(Multigrid, TheCycleIsSymmetricPositiveDefinite) {
     testing::randomise_state(f.sim, seed);
     f.assemble();
     ASSERT_EQ(f.objective.multigrid()->coarse_failures(), 0);
-    for (unsigned k = 0; k < 4; ++k) {
-      const std::vector<double> x = f.random_free(100 * seed + 2 * k);
-      const std::vector<double> y = f.random_free(100 * seed + 2 * k + 1);
-      const std::vector<double> bx = f.precondition(x), by = f.precondition(y);
-      const double xby = dot(x, by), ybx = dot(y, bx);
-      EXPECT_NEAR(xby, ybx, 1e-10 * std::sqrt(dot(x, bx) * dot(y, by))) << "seed " << seed;
-      EXPECT_GT(dot(x, bx), 0.0);
-      EXPECT_GT(dot(y, by), 0.0);
+    expect_symmetric_positive(f, seed);
+  }
+}
+
+// --- The V-cycle (kernels/vcycle_preconditioner.hpp) ------------------------------------
+
+TEST(Vcycle, PcgIterationsStayFlatFrom17To257) {
+  // With the shipped coarsest size and with a coarsest level of at most 30 nodes (one more
+  // level at every size: the cycle must not depend on a large direct solve).
+  for (const std::int64_t coarsest :
+       {kernels::VcyclePreconditioner::kCoarsestNodes, std::int64_t{30}}) {
+    for (int n : {17, 33, 65, 129, 257}) {
+      if (n == 257 && clothbench_test::kSanitized) continue;
+      Fixture f(stretched_sheet(n, Preconditioner::vcycle));
+      f.objective.vcycle()->set_coarsest_nodes(coarsest);
+      load_stretched(f);
+      const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+      ASSERT_EQ(v.failures(), 0);
+      const int iterations = pcg_iterations(f, f.random_free(7));
+      EXPECT_LE(iterations, 15) << n << "^2";
+      std::printf("%d^2: PCG iterations with the V-cycle %d (%d levels, coarsest %lld nodes)\n", n,
+                  iterations, v.levels(), static_cast<long long>(v.level_nodes(v.levels() - 1)));
+      if (n >= 65) {
+        EXPECT_GE(v.levels(), 3) << n << "^2";
+      }
     }
   }
+}
+
+/// The graded cloth with a random state and a V-cycle of at least three levels on it (a
+/// coarsest level of 4 nodes), assembled.
+const kernels::VcyclePreconditioner& graded_vcycle(Fixture& f, unsigned seed) {
+  f.grade();
+  testing::randomise_state(f.sim, seed);
+  f.objective.vcycle()->set_coarsest_nodes(4);
+  f.assemble();
+  return *f.objective.vcycle();
+}
+
+TEST(Vcycle, ProlongationsReproduceLinearFieldsOnAGradedMeshWithGhosts) {
+  Fixture f(graded_cloth(false, Preconditioner::vcycle));
+  const kernels::VcyclePreconditioner& v = graded_vcycle(f, 6);
+  ASSERT_GE(v.levels(), 3);
+  for (int k = 0; k + 1 < v.levels(); ++k) {
+    const auto& p = v.prolongation(k);
+    ASSERT_EQ(p.rows(), 3 * v.level_nodes(k));
+    ASSERT_EQ(p.cols(), 3 * v.level_nodes(k + 1));
+    for (int axis = 0; axis < 2; ++axis) {
+      const std::vector<int>& fine = axis == 0 ? v.node_i(k) : v.node_j(k);
+      const std::vector<int>& coarse = axis == 0 ? v.node_i(k + 1) : v.node_j(k + 1);
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(p.cols());
+      for (std::size_t a = 0; a < coarse.size(); ++a) {
+        for (int d = 0; d < 3; ++d) c[static_cast<Eigen::Index>(3 * a + d)] = coarse[a] + 0.5 * d;
+      }
+      const Eigen::VectorXd x = p * c;
+      for (std::size_t a = 0; a < fine.size(); ++a) {
+        for (int d = 0; d < 3; ++d) {
+          EXPECT_NEAR(x[static_cast<Eigen::Index>(3 * a + d)], fine[a] + 0.5 * d, 1e-12)
+              << "level " << k << " node " << a;
+        }
+      }
+    }
+  }
+}
+
+TEST(Vcycle, CoarseOperatorsAreGalerkinProductsOfTheModel) {
+  Fixture f(graded_cloth(true, Preconditioner::vcycle));
+  const kernels::VcyclePreconditioner& v = graded_vcycle(f, 8);
+  ASSERT_GE(v.levels(), 3);
+  for (int k = 0; k + 1 < v.levels(); ++k) {
+    const Eigen::MatrixXd p = Eigen::MatrixXd(v.prolongation(k));
+    const Eigen::MatrixXd expected = p.transpose() * Eigen::MatrixXd(v.level_operator(k)) * p;
+    const Eigen::MatrixXd coarse = Eigen::MatrixXd(v.level_operator(k + 1));
+    EXPECT_LE((coarse - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+  }
+}
+
+TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
+  for (unsigned seed : {3u, 4u, 5u}) {
+    Fixture f(graded_cloth(true, Preconditioner::vcycle));
+    const kernels::VcyclePreconditioner& v = graded_vcycle(f, seed);
+    ASSERT_EQ(v.failures(), 0);
+    ASSERT_GE(v.levels(), 3);
+    expect_symmetric_positive(f, seed);
+  }
+}
+
+TEST(Vcycle, MemoryEstimateCoversWhatTheCycleHoldsOnAUniformSheet) {
+  // After the step's first factorisation on a 129^2 sheet (the finest level, every line).
+  Fixture f(stretched_sheet(129, Preconditioner::vcycle));
+  load_stretched(f);
+  const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  ASSERT_GE(v.levels(), 3);
+  EXPECT_GT(v.memory_bytes(), 0u);
+  EXPECT_LE(v.memory_bytes(), 129u * 129u * kernels::VcyclePreconditioner::kBytesPerSlot);
+  kernels::SimulationConfig block_jacobi = stretched_sheet(129, Preconditioner::block_jacobi);
+  EXPECT_EQ(kernels::estimate_memory_bytes(stretched_sheet(129, Preconditioner::vcycle)) -
+                kernels::estimate_memory_bytes(block_jacobi),
+            129u * 129u * kernels::VcyclePreconditioner::kBytesPerSlot);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // The Newton step solver (kernels/model_hessian.hpp, newton_minimiser.hpp): the model Hessian
 // is the exact second derivative of Phi where the model is exact, symmetric and positive
-// definite everywhere (ghosts included); Newton reaches the state nonlinear CG reaches; and
+// definite everywhere (ghosts included); the nonlinear smoothing's colours keep every element
+// to one moving particle per colour and its moves only lower Phi; Newton (with and without the
+// smoothing) reaches the state nonlinear CG reaches; and
 // damping is a rate, so halving the step does not add damping.
 #include <gtest/gtest.h>
 
@@ -8,6 +10,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "kernel_fixtures.hpp"
@@ -155,21 +158,32 @@ TEST(ModelHessian, EqualsTheFiniteDifferenceJacobianOfTheGradientWhereTheModelIs
   }
 }
 
-TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
+/// A 9 x 9 cloth for AMRC with L = 2, with pins and obstacles (testing::small_cloth).
+kernels::SimulationConfig graded_config() {
   kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
   c.cloth.particles_i = 9;
   c.cloth.particles_j = 9;
   c.amrc.enabled = true;
   c.amrc.levels = 2;
+  return c;
+}
+
+/// Coarse cells beside fine ones (ghosts on the shared sides), then a random state of `seed`.
+void grade_and_randomise(ModelFixture& f, unsigned seed) {
+  kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
+  ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
+  ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
+  f.sim.end_tree_edit();
+  ASSERT_GT(f.sim.mesh().ghost_count(), 0);
+  testing::randomise_state(f.sim, seed);
+}
+
+TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
+  const kernels::SimulationConfig c = graded_config();
   for (unsigned seed : {1u, 2u, 3u}) {
     ModelFixture f(c);
-    // Coarse cells beside fine ones: ghosts on the shared sides.
-    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
-    f.sim.end_tree_edit();
-    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
-    testing::randomise_state(f.sim, seed);
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
     f.assemble();
     for (unsigned k = 0; k < 4; ++k) {
       const std::vector<double> x = random_free_vector(f.sim, 10 * seed + k);
@@ -185,19 +199,11 @@ TEST(ModelHessian, IsSymmetricAndPositiveDefiniteOnRandomStatesWithGhosts) {
 TEST(ModelHessian, ItsSparseMatrixEqualsTheMatrixFreeProductWithGhostsAndPins) {
   // The explicit matrix (the multigrid's fine operator) against apply(), on graded meshes with
   // ghosts, random states (edges on every branch, bent triples) and a pinned corner.
-  kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
-  c.cloth.particles_i = 9;
-  c.cloth.particles_j = 9;
-  c.amrc.enabled = true;
-  c.amrc.levels = 2;
+  const kernels::SimulationConfig c = graded_config();
   for (unsigned seed : {4u, 5u}) {
     ModelFixture f(c);
-    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 0}, f.sim.mesh()));
-    ASSERT_TRUE(tree.coarsen(kernels::TreeCell{1, 3, 2}, f.sim.mesh()));
-    f.sim.end_tree_edit();
-    ASSERT_GT(f.sim.mesh().ghost_count(), 0);
-    testing::randomise_state(f.sim, seed);
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
     for (double& m : f.sim.state().triple_moment) m = 2.0 * f.sim.material().bending[0].hb;
     f.assemble();
     std::int64_t unknowns = 0;
@@ -239,17 +245,83 @@ kernels::SimulationConfig small_drape() {
   return c;
 }
 
+/// The free particles that move a node: itself, or a ghost's parents (recursively).
+void owners_of(const kernels::ClothMesh& mesh, std::int64_t k, std::vector<std::int64_t>& out) {
+  const int d = kernels::ghost_direction(mesh.flags[k]);
+  if (d < 0) {
+    out.push_back(k);
+    return;
+  }
+  const std::int64_t id = kernels::element_id(k, d);
+  owners_of(mesh, mesh.prev[id], out);
+  owners_of(mesh, mesh.next[id], out);
+}
+
+TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFalls) {
+  kernels::SimulationConfig c = graded_config();
+  c.solver.smoothing_sweeps = 3;
+  for (unsigned seed : {1u, 2u, 3u}) {
+    ModelFixture f(c);
+    grade_and_randomise(f, seed);
+    if (HasFatalFailure()) return;
+    f.assemble();
+    kernels::Evaluation before, after;
+    std::int64_t moved = 0;
+    f.run([&](kernels::LoopRunner& r) {
+      before = f.objective.evaluate(r);
+      f.objective.colour_for_smoothing(r);
+      moved = f.objective.smooth(r, 3, 1e-6);
+      after = f.objective.evaluate(r);
+    });
+    // Every element's nodes, ghosts resolved into the particles that move them: no two of one
+    // colour (else two threads would change one element's energy at once).
+    const kernels::ClothMesh& mesh = f.sim.mesh();
+    const std::vector<int>& colour = f.objective.smoothing_colours();
+    int elements = 0;
+    for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+      std::vector<std::int64_t> nodes;
+      const std::int64_t slot = kernels::element_slot(id);
+      if (mesh.edge_active[id]) nodes = {slot, mesh.next[id]};
+      if (mesh.triple_active[id]) nodes = {mesh.prev[id], slot, mesh.next[id]};
+      if (nodes.empty()) continue;
+      std::vector<std::int64_t> owners;
+      for (std::int64_t k : nodes) owners_of(mesh, k, owners);
+      std::sort(owners.begin(), owners.end());
+      owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+      for (std::size_t a = 0; a < owners.size(); ++a) {
+        for (std::size_t b = a + 1; b < owners.size(); ++b) {
+          if (colour[owners[a]] < 0 || colour[owners[b]] < 0) continue;
+          EXPECT_NE(colour[owners[a]], colour[owners[b]])
+              << "element " << id << " moves with slots " << owners[a] << " and " << owners[b];
+        }
+      }
+      ++elements;
+    }
+    EXPECT_GT(elements, 0);
+    EXPECT_GE(f.objective.smoothing_colour_count(), 3u);
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      EXPECT_EQ(colour[s] >= 0, f.ctx.is_free(s)) << "slot " << s;
+    }
+    EXPECT_GT(moved, 0) << "seed " << seed;
+    EXPECT_LT(after.value, before.value) << "seed " << seed;
+    EXPECT_LT(after.cost, before.cost) << "seed " << seed << ": the residual falls too";
+  }
+}
+
 TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
   kernels::SimulationConfig cg = small_drape();
   kernels::SimulationConfig newton = newton_config(cg);
   // Nonlinear CG has no multigrid: Newton-multigrid is compared with CG and line solves.
-  const std::pair<Preconditioner, Preconditioner> pairs[] = {
-      {Preconditioner::block_jacobi, Preconditioner::block_jacobi},
-      {Preconditioner::line_solves, Preconditioner::line_solves},
-      {Preconditioner::line_solves, Preconditioner::multigrid}};
-  for (const auto& [pc, p] : pairs) {
+  // The last pair: Newton with nonlinear smoothing after each line search.
+  const std::tuple<Preconditioner, Preconditioner, int> pairs[] = {
+      {Preconditioner::block_jacobi, Preconditioner::block_jacobi, 0},
+      {Preconditioner::line_solves, Preconditioner::line_solves, 0},
+      {Preconditioner::line_solves, Preconditioner::multigrid, 0},
+      {Preconditioner::line_solves, Preconditioner::line_solves, 3}};
+  for (const auto& [pc, p, sweeps] : pairs) {
     cg.solver.preconditioner = pc;
     newton.solver.preconditioner = p;
+    newton.solver.smoothing_sweeps = sweeps;
     kernels::Simulation a(cg), b(newton);
     schedulers::OmpStaticDriver driver;
     int newton_iterations = 0, linear_iterations = 0;

@@ -1,0 +1,227 @@
+// Multigrid V-cycle preconditioner of Newton's inner PCG (see vcycle_preconditioner.hpp).
+#include "kernels/vcycle_preconditioner.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <utility>
+
+namespace clothbench::kernels {
+
+namespace {
+
+/// Solves L L^T x = b in place with the factor of band_cholesky.
+void band_solve(const double* band, std::int64_t n, int w, double* x) {
+  const std::int64_t row = w + 1;
+  for (std::int64_t r = 0; r < n; ++r) {
+    double sum = x[r];
+    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k)
+      sum -= band[r * row + k - r + w] * x[k];
+    x[r] = sum / band[r * row + w];
+  }
+  for (std::int64_t r = n - 1; r >= 0; --r) {
+    double sum = x[r];
+    const std::int64_t last = std::min<std::int64_t>(n - 1, r + w);
+    for (std::int64_t k = r + 1; k <= last; ++k) sum -= band[k * row + r - k + w] * x[k];
+    x[r] = sum / band[r * row + w];
+  }
+}
+
+/// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
+inline void block_residual(const std::int64_t* start, const std::int64_t* col, const double* value,
+                           std::int64_t a, const double* x, const double* b, double* out) {
+  double r0 = b[3 * a], r1 = b[3 * a + 1], r2 = b[3 * a + 2];
+  for (std::int64_t blk = start[a]; blk < start[a + 1]; ++blk) {
+    const double* m = value + 9 * blk;
+    const double* xb = x + 3 * col[blk];
+    r0 -= m[0] * xb[0] + m[1] * xb[1] + m[2] * xb[2];
+    r1 -= m[3] * xb[0] + m[4] * xb[1] + m[5] * xb[2];
+    r2 -= m[6] * xb[0] + m[7] * xb[1] + m[8] * xb[2];
+  }
+  out[0] = r0;
+  out[1] = r1;
+  out[2] = r2;
+}
+
+}  // namespace
+
+void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
+  Lines& l = level.lines[d];
+  if (l.ok[line] == 0) return;
+  const std::int64_t first = l.start[line];
+  const std::int64_t rows = 3 * (l.start[line + 1] - first);
+  double* rhs = level.scratch.data() + 3 * first;
+  const BlockRows& a = level.a;
+  for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
+    block_residual(a.start.data(), a.col.data(), a.value.data(), l.order[e], level.x.data(),
+                   level.b.data(), rhs + 3 * (e - first));
+  }
+  band_solve(l.band.data() + l.band_start[line], rows, l.width[line], rhs);
+  for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
+    const std::int64_t node = l.order[e];
+    for (int c = 0; c < 3; ++c) level.x[3 * node + c] += rhs[3 * (e - first) + c];
+  }
+}
+
+void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
+  auto sweep = [&](int d, int colour) {
+    const Lines& l = level.lines[d];
+    const std::int64_t b = l.colour_start[colour];
+    run.for_index(l.colour_start[colour + 1] - b,
+                  [&](std::int64_t k) { update_line(level, d, l.by_colour[b + k]); });
+  };
+  if (forward) {
+    for (int d = 0; d < 2; ++d) {
+      const int colours = static_cast<int>(level.lines[d].colour_start.size()) - 1;
+      for (int c = 0; c < colours; ++c) sweep(d, c);
+    }
+  } else {
+    for (int d = 1; d >= 0; --d) {
+      const int colours = static_cast<int>(level.lines[d].colour_start.size()) - 1;
+      for (int c = colours - 1; c >= 0; --c) sweep(d, c);
+    }
+  }
+}
+
+void VcyclePreconditioner::cycle(LoopRunner& run, std::size_t k) {
+  Level& level = levels_[k];
+  const std::int64_t nodes = static_cast<std::int64_t>(level.i.size());
+  if (k + 1 == levels_.size()) {
+    // The coarsest level: a direct solve on one thread.
+#pragma omp single
+    {
+      if (direct_ready_) {
+        coarse_b_ = Eigen::Map<const Eigen::VectorXd>(level.b.data(), 3 * nodes);
+        coarse_x_ = direct_.solve(coarse_b_);
+        std::copy(coarse_x_.data(), coarse_x_.data() + 3 * nodes, level.x.begin());
+      } else {
+        std::fill(level.x.begin(), level.x.end(), 0.0);
+      }
+    }
+    return;
+  }
+  run.for_index(nodes, [&](std::int64_t a) {
+    for (int c = 0; c < 3; ++c) level.x[3 * a + c] = 0.0;
+  });
+  smooth(run, level, true);
+  const BlockRows& a = level.a;
+  run.for_index(nodes, [&](std::int64_t node) {
+    block_residual(a.start.data(), a.col.data(), a.value.data(), node, level.x.data(),
+                   level.b.data(), level.res.data() + 3 * node);
+  });
+  Level& coarse = levels_[k + 1];
+  run.for_index(static_cast<std::int64_t>(coarse.i.size()), [&](std::int64_t c) {
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (std::int64_t e = level.r.start[c]; e < level.r.start[c + 1]; ++e) {
+      const double w = level.r.weight[e];
+      const double* res = level.res.data() + 3 * level.r.node[e];
+      for (int q = 0; q < 3; ++q) sum[q] += w * res[q];
+    }
+    for (int q = 0; q < 3; ++q) coarse.b[3 * c + q] = sum[q];
+  });
+  cycle(run, k + 1);
+  run.for_index(nodes, [&](std::int64_t node) {
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (std::int64_t e = level.p.start[node]; e < level.p.start[node + 1]; ++e) {
+      const double w = level.p.weight[e];
+      const double* xc = coarse.x.data() + 3 * level.p.node[e];
+      for (int q = 0; q < 3; ++q) sum[q] += w * xc[q];
+    }
+    for (int q = 0; q < 3; ++q) level.x[3 * node + q] += sum[q];
+  });
+  smooth(run, level, false);
+}
+
+void VcyclePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
+                                 const std::vector<double>& r, std::vector<double>& out) {
+  Level& fine = levels_.front();
+  const std::int64_t nodes = static_cast<std::int64_t>(fine.i.size());
+  run.for_index(nodes, [&](std::int64_t a) {
+    const std::int64_t s = slot_of_node_[a];
+    for (int c = 0; c < 3; ++c) fine.b[3 * a + c] = r[3 * s + c];
+  });
+  cycle(run, 0);
+  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    for (int c = 0; c < 3; ++c) out[3 * s + c] = 0.0;
+  });
+  run.for_index(nodes, [&](std::int64_t a) {
+    const std::int64_t s = slot_of_node_[a];
+    for (int c = 0; c < 3; ++c) out[3 * s + c] = fine.x[3 * a + c];
+  });
+  (void)ctx;
+}
+
+Eigen::SparseMatrix<double> VcyclePreconditioner::level_operator(int k) const {
+  const BlockRows& a = levels_[static_cast<std::size_t>(k)].a;
+  const std::int64_t n = static_cast<std::int64_t>(a.start.size()) - 1;
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(9 * a.col.size());
+  for (std::int64_t row = 0; row < n; ++row) {
+    for (std::int64_t blk = a.start[row]; blk < a.start[row + 1]; ++blk) {
+      for (int q = 0; q < 9; ++q) {
+        triplets.emplace_back(3 * row + q / 3, 3 * a.col[blk] + q % 3, a.value[9 * blk + q]);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> m(3 * n, 3 * n);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+Eigen::SparseMatrix<double> VcyclePreconditioner::prolongation(int k) const {
+  const Weights& p = levels_[static_cast<std::size_t>(k)].p;
+  const std::int64_t n = static_cast<std::int64_t>(p.start.size()) - 1;
+  const std::int64_t m =
+      static_cast<std::int64_t>(levels_[static_cast<std::size_t>(k) + 1].i.size());
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (std::int64_t a = 0; a < n; ++a) {
+    for (std::int64_t e = p.start[a]; e < p.start[a + 1]; ++e) {
+      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * a + c, 3 * p.node[e] + c, p.weight[e]);
+    }
+  }
+  Eigen::SparseMatrix<double> out(3 * n, 3 * m);
+  out.setFromTriplets(triplets.begin(), triplets.end());
+  return out;
+}
+
+std::size_t VcyclePreconditioner::memory_bytes() const {
+  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t);
+  for (const Accumulator& acc : accumulators_) {
+    bytes += (acc.slot_of.capacity() + acc.cols.capacity() + acc.order.capacity()) *
+                 sizeof(std::int64_t) +
+             acc.values.capacity() * sizeof(double);
+  }
+  for (std::size_t e = 0; e < row_cols_.size(); ++e) {
+    bytes +=
+        row_cols_[e].capacity() * sizeof(std::int64_t) + row_values_[e].capacity() * sizeof(double);
+  }
+  for (const Level& level : levels_) {
+    bytes += (level.a.start.capacity() + level.a.col.capacity()) * sizeof(std::int64_t) +
+             level.a.value.capacity() * sizeof(double);
+    for (const Weights* w : {&level.p, &level.r}) {
+      bytes += (w->start.capacity() + w->node.capacity()) * sizeof(std::int64_t) +
+               w->weight.capacity() * sizeof(double);
+    }
+    bytes += (level.i.capacity() + level.j.capacity()) * sizeof(int) +
+             (level.x.capacity() + level.b.capacity() + level.res.capacity() +
+              level.scratch.capacity()) *
+                 sizeof(double);
+    for (const Lines& l : level.lines) {
+      bytes += l.band.capacity() * sizeof(double) +
+               (l.order.capacity() + l.start.capacity() + l.by_colour.capacity() +
+                l.colour_start.capacity() + l.band_start.capacity() + l.line_of.capacity() +
+                l.position.capacity()) *
+                   sizeof(std::int64_t) +
+               l.width.capacity() * sizeof(int) + l.ok.capacity();
+    }
+  }
+  if (direct_ready_) {
+    const auto& l = direct_.matrixL().nestedExpression();
+    bytes += static_cast<std::size_t>(l.nonZeros()) * (sizeof(double) + sizeof(int));
+  }
+  return bytes;
+}
+
+}  // namespace clothbench::kernels

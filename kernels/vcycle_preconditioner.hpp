@@ -1,0 +1,170 @@
+// Multigrid V-cycle preconditioner of Newton's inner PCG on the AMRC tree (MODEL-NOTES.md,
+// "V-cycle").
+//
+// Levels. Level 0 is the assembled model Hessian over the free particles. Level k+1 keeps the
+// nodes of level k whose grid coordinates both lie on the lines of spacing 2^(k+1) (or on the
+// grid's last line); every other node follows the kept nodes around it by the bilinear rule
+// the AMRC warm start and the ghost midpoints use (linear weights by grid distance). So a level
+// is the same quadtree with every leaf clamped to at least that level: in a coarse region of
+// the cloth nothing changes until the level reaches its leaves. On level 0 a corner that is a
+// ghost follows its parents; a pinned corner drops out (its correction is zero); a node whose
+// corners are not all nodes is kept as a node of the next level, so every prolongation P_k
+// holds an identity row per coarse node and has full column rank. The coarse operators are
+// Galerkin products A_(k+1) = P_k^T A_k P_k, so they see the contact stiffness k n n^T that the
+// model holds for particles in contact. The hierarchy stops when a level has at most
+// kCoarsestNodes nodes (600) or nothing coarser exists; that level is solved directly (sparse
+// LDL^T).
+//
+// Smoother. Alternating-direction line Gauss-Seidel: along each grid direction the nodes of a
+// level form lines, and a line update solves the level's operator restricted to the line
+// (its exact principal submatrix, banded: the bending triples couple nodes two apart) for the
+// line's residual. Lines are coloured greedily in line order so that no two lines of a colour
+// are coupled; the lines of a colour are updated in parallel, which is then the same as in any
+// order. Before the coarse correction the sweep runs direction 0 then 1, colours ascending;
+// after it the exact reverse. Each line update is an A-orthogonal projection, so the cycle
+// with x = 0 to start is symmetric positive definite for any SPD model: a valid CG
+// preconditioner on crumpled states in contact, where a Jacobi-type line smoother was not
+// (multigrid_preconditioner.hpp).
+//
+// Every loop of the cycle (line factorisations, line updates, residuals, restriction,
+// prolongation) goes through the LoopRunner and writes only its own entries; the assembly of
+// the hierarchy and the coarsest solve run on one thread. The result has the same bits on
+// every scheduler and thread count.
+#pragma once
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <cstdint>
+#include <vector>
+
+#include "kernels/loop_runner.hpp"
+#include "kernels/model_hessian.hpp"
+#include "kernels/step_context.hpp"
+
+namespace clothbench::kernels {
+
+class VcyclePreconditioner {
+ public:
+  /// A level this small (nodes) is solved directly.
+  static constexpr std::int64_t kCoarsestNodes = 600;
+
+  /// The size below which a level is solved directly (tests use small values to get several
+  /// levels on small meshes); takes effect at the next factor().
+  void set_coarsest_nodes(std::int64_t nodes) { coarsest_nodes_ = nodes; }
+
+  /// Builds the hierarchy for the current model, then factorises every line of every level.
+  /// Level 0's blocks, the prolongations and the lines are made on one thread; the Galerkin
+  /// products (by coarse rows) and the line factorisations run through the LoopRunner. Every
+  /// thread of the region calls it.
+  void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
+  /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
+  /// calls it; ends after a barrier.
+  void apply(LoopRunner& run, const StepContext& ctx, const std::vector<double>& r,
+             std::vector<double>& out);
+
+  [[nodiscard]] int levels() const { return static_cast<int>(levels_.size()); }
+  /// Nodes of level k (level 0: the free particles).
+  [[nodiscard]] std::int64_t level_nodes(int k) const {
+    return static_cast<std::int64_t>(levels_[static_cast<std::size_t>(k)].i.size());
+  }
+  /// Grid coordinates of the nodes of level k.
+  [[nodiscard]] const std::vector<int>& node_i(int k) const {
+    return levels_[static_cast<std::size_t>(k)].i;
+  }
+  [[nodiscard]] const std::vector<int>& node_j(int k) const {
+    return levels_[static_cast<std::size_t>(k)].j;
+  }
+  /// Line colours of level k along direction d.
+  [[nodiscard]] int colours(int k, int d) const {
+    return static_cast<int>(levels_[static_cast<std::size_t>(k)].lines[d].colour_start.size()) - 1;
+  }
+  /// Operator of level k and the prolongation from level k+1 to k as scalar sparse matrices
+  /// (3 rows and columns per node; tests).
+  [[nodiscard]] Eigen::SparseMatrix<double> level_operator(int k) const;
+  [[nodiscard]] Eigen::SparseMatrix<double> prolongation(int k) const;
+  [[nodiscard]] std::int64_t factorisations() const { return factorisations_; }
+  /// Line or coarsest factorisations that found a non-positive pivot (the model was not SPD;
+  /// the failing line or level is then left out of the cycle).
+  [[nodiscard]] std::int64_t failures() const { return failures_; }
+
+  [[nodiscard]] std::size_t memory_bytes() const;
+  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 72 B + 8 B index, and
+  /// its pattern while it is made), the line factors (two directions, 3 rows of 9 band
+  /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
+  /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
+  /// 2.37 kB a slot measured on a 129^2 sheet).
+  static constexpr std::size_t kBytesPerSlot =
+      (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3;
+
+ private:
+  /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
+  struct BlockRows {
+    std::vector<std::int64_t> start;  ///< per row: first block (+ end)
+    std::vector<std::int64_t> col;    ///< per block: its column node
+    std::vector<double> value;        ///< per block: 9 entries, row-major
+  };
+  /// Interpolation weights by node: per row the (node, weight) pairs it follows.
+  struct Weights {
+    std::vector<std::int64_t> start;
+    std::vector<std::int64_t> node;
+    std::vector<double> weight;
+  };
+  /// Nodes of one grid direction's lines: node order by (line, position), line ranges,
+  /// line colours, band factor offsets and widths.
+  struct Lines {
+    std::vector<std::int64_t> order;         ///< node indices, line by line, in grid order
+    std::vector<std::int64_t> start;         ///< per line: first entry of `order` (+ end)
+    std::vector<std::int64_t> by_colour;     ///< line indices sorted by colour
+    std::vector<std::int64_t> colour_start;  ///< per colour: first entry of `by_colour` (+ end)
+    std::vector<std::int64_t> band_start;    ///< per line: offset into `band` (+ end)
+    std::vector<int> width;                  ///< per line: scalar half-bandwidth
+    std::vector<std::uint8_t> ok;            ///< per line: factorisation succeeded
+    std::vector<double> band;                ///< lower band of each line's Cholesky factor
+    std::vector<std::int64_t> line_of;       ///< per node: its line
+    std::vector<std::int64_t> position;      ///< per node: its position on the line
+  };
+  struct Level {
+    std::vector<int> i, j;  ///< grid coordinates of each node
+    BlockRows a;            ///< the operator
+    Weights p;              ///< per node of this level: the next level's nodes it follows
+    Weights r;              ///< per node of the next level: this level's nodes (P^T)
+    Lines lines[2];
+    std::vector<double> x, b, res, scratch;  ///< 3 per node each
+  };
+  /// Per thread: the Galerkin product's row accumulator.
+  struct Accumulator {
+    std::vector<std::int64_t> slot_of;  ///< per coarse node: its place in `cols`, or -1
+    std::vector<std::int64_t> cols;
+    std::vector<double> values;
+    std::vector<std::int64_t> order;
+  };
+
+  enum class Coarsening { level, too_few, coarsest };
+  /// One thread: the nodes of level k on the lattice of spacing s (and those that cannot
+  /// follow it) as level k + 1, with level k's prolongation; too_few when that would keep
+  /// more than 4/5 of level k's nodes; coarsest when level k is small enough or nothing
+  /// coarser exists.
+  Coarsening coarsen(const StepContext& ctx, int k, int s, std::vector<std::int64_t>& node_at);
+  /// Row `row` of level k+1's operator P^T A P (one thread per row).
+  void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc);
+  /// One thread: lines of a level along direction d, their colours and band widths.
+  void build_lines(Level& level, int d);
+  void factor_line(Level& level, int d, std::int64_t line);
+  void update_line(Level& level, int d, std::int64_t line);
+  void smooth(LoopRunner& run, Level& level, bool forward);
+  void cycle(LoopRunner& run, std::size_t k);
+
+  std::vector<Level> levels_;
+  std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
+  std::vector<Accumulator> accumulators_;            ///< one per thread
+  std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin rows before concatenation
+  std::vector<std::vector<double>> row_values_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> direct_;
+  bool direct_ready_ = false;
+  Eigen::VectorXd coarse_b_, coarse_x_;
+  std::int64_t coarsest_nodes_ = kCoarsestNodes;
+  std::int64_t factorisations_ = 0;
+  std::int64_t failures_ = 0;
+};
+
+}  // namespace clothbench::kernels

@@ -1,0 +1,443 @@
+// Set-up of the V-cycle (see vcycle_preconditioner.hpp): level 0 from the model's blocks, the
+// coarser levels and their prolongations, the Galerkin products, the lines and their band
+// factors. The cycle itself is in vcycle_preconditioner.cpp.
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <utility>
+
+#include "kernels/vcycle_preconditioner.hpp"
+
+namespace clothbench::kernels {
+
+namespace {
+
+using Follow = std::vector<std::pair<std::int64_t, double>>;
+
+/// A grid line index on the lattice of spacing `s` (or the grid's last line).
+bool on_lattice(int index, int s, int lines) { return index % s == 0 || index == lines - 1; }
+
+/// The lattice lines around `index` with their linear weights: the line itself (weight 1) on
+/// the lattice, else the lattice lines below and above by grid distance.
+int around(int index, int s, int lines, int out[2], double weight[2]) {
+  if (on_lattice(index, s, lines)) {
+    out[0] = index;
+    weight[0] = 1.0;
+    return 1;
+  }
+  const int lo = (index / s) * s;
+  const int hi = std::min(lo + s, lines - 1);
+  out[0] = lo;
+  out[1] = hi;
+  weight[0] = static_cast<double>(hi - index) / (hi - lo);
+  weight[1] = static_cast<double>(index - lo) / (hi - lo);
+  return 2;
+}
+
+/// Lower band of a symmetric positive definite band matrix (half-bandwidth w, row-major rows
+/// of w + 1 entries, entry (r, c) for r - w <= c <= r at r * (w + 1) + c - r + w) overwritten
+/// by its Cholesky factor L. False on a non-positive pivot.
+bool band_cholesky(double* band, std::int64_t n, int w) {
+  const std::int64_t row = w + 1;
+  for (std::int64_t r = 0; r < n; ++r) {
+    const std::int64_t first = std::max<std::int64_t>(0, r - w);
+    for (std::int64_t c = first; c <= r; ++c) {
+      double sum = band[r * row + c - r + w];
+      const std::int64_t from = std::max(first, c - w);
+      for (std::int64_t k = from; k < c; ++k)
+        sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
+      if (c == r) {
+        if (!(sum > 0.0) || !std::isfinite(sum)) return false;
+        band[r * row + w] = std::sqrt(sum);
+      } else {
+        band[r * row + c - r + w] = sum / band[c * row + w];
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext& ctx, int k, int s,
+                                                               std::vector<std::int64_t>& node_at) {
+  const ClothMesh& mesh = ctx.mesh;
+  const int ni = mesh.size_i(), nj = mesh.size_j();
+  Level& fine = levels_[static_cast<std::size_t>(k)];
+  const std::int64_t n = static_cast<std::int64_t>(fine.i.size());
+  if (n <= coarsest_nodes_ || s >= 2 * std::max(ni, nj)) return Coarsening::coarsest;
+  auto grid = [&](int i, int j) { return static_cast<std::size_t>(i) * nj + j; };
+  for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = a;
+  // The nodes of level k that node (i, j)'s value follows, with weights, or false.
+  Follow list;
+  auto corner = [&](int i, int j, double w) {
+    const std::int64_t a = node_at[grid(i, j)];
+    if (a >= 0) {
+      list.emplace_back(a, w);
+      return true;
+    }
+    const std::int32_t slot = mesh.slot(i, j);
+    const std::uint8_t f = mesh.flags[slot];
+    if ((f & kParticleActive) != 0 && (f & kParticlePinned) != 0) return true;  // zero
+    if (k == 0 && (f & kParticleGhost) != 0) {
+      // A ghost follows its parents by halves; they must be nodes on the coarse lattice.
+      const int d = ghost_direction(f);
+      if (d < 0) return false;
+      const std::int64_t id = element_id(slot, d);
+      for (const std::int64_t parent : {mesh.prev[id], mesh.next[id]}) {
+        if (parent < 0) return false;
+        const int pi = mesh.grid_i(parent), pj = mesh.grid_j(parent);
+        const std::int64_t b = node_at[grid(pi, pj)];
+        const std::uint8_t pf = mesh.flags[parent];
+        if (b >= 0) {
+          if (!on_lattice(pi, s, ni) || !on_lattice(pj, s, nj)) return false;
+          list.emplace_back(b, 0.5 * w);
+        } else if ((pf & kParticleActive) == 0 || (pf & kParticlePinned) == 0) {
+          return false;
+        }
+      }
+      return true;
+    }
+    return false;
+  };
+  auto corners = [&](std::int64_t a) {
+    list.clear();
+    int ci[2], cj[2];
+    double wi[2], wj[2];
+    const int n_i = around(fine.i[a], s, ni, ci, wi);
+    const int n_j = around(fine.j[a], s, nj, cj, wj);
+    for (int x = 0; x < n_i; ++x) {
+      for (int y = 0; y < n_j; ++y) {
+        if (!corner(ci[x], cj[y], wi[x] * wj[y])) return false;
+      }
+    }
+    return true;
+  };
+  std::vector<std::int64_t> coarse(static_cast<std::size_t>(n), -1);
+  Level next;
+  for (std::int64_t a = 0; a < n; ++a) {
+    const bool lattice = on_lattice(fine.i[a], s, ni) && on_lattice(fine.j[a], s, nj);
+    if (lattice || !corners(a)) {
+      coarse[a] = static_cast<std::int64_t>(next.i.size());
+      next.i.push_back(fine.i[a]);
+      next.j.push_back(fine.j[a]);
+    }
+  }
+  const std::int64_t m = static_cast<std::int64_t>(next.i.size());
+  auto clear = [&] {
+    for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = -1;
+  };
+  if (m == 0) {
+    clear();
+    return Coarsening::coarsest;
+  }
+  if (5 * m > 4 * n) {  // try the next lattice from this level
+    clear();
+    return Coarsening::too_few;
+  }
+  // P by fine node (the corners of an interpolated node are lattice nodes, hence coarse
+  // nodes), then P^T by coarse node in fine node order.
+  Weights& p = fine.p;
+  p.start.assign(1, 0);
+  p.node.clear();
+  p.weight.clear();
+  for (std::int64_t a = 0; a < n; ++a) {
+    if (coarse[a] >= 0) {
+      p.node.push_back(coarse[a]);
+      p.weight.push_back(1.0);
+    } else {
+      corners(a);
+      for (const auto& [b, w] : list) {
+        p.node.push_back(coarse[b]);
+        p.weight.push_back(w);
+      }
+    }
+    p.start.push_back(static_cast<std::int64_t>(p.node.size()));
+  }
+  clear();
+  Weights& r = fine.r;
+  r.start.assign(static_cast<std::size_t>(m) + 1, 0);
+  for (const std::int64_t c : p.node) ++r.start[c + 1];
+  for (std::int64_t c = 0; c < m; ++c) r.start[c + 1] += r.start[c];
+  r.node.assign(p.node.size(), 0);
+  r.weight.assign(p.node.size(), 0.0);
+  std::vector<std::int64_t> fill(r.start.begin(), r.start.end() - 1);
+  for (std::int64_t a = 0; a < n; ++a) {
+    for (std::int64_t e = p.start[a]; e < p.start[a + 1]; ++e) {
+      const std::int64_t at = fill[p.node[e]]++;
+      r.node[at] = a;
+      r.weight[at] = p.weight[e];
+    }
+  }
+  levels_.push_back(std::move(next));
+  return Coarsening::level;
+}
+
+void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc) {
+  const Level& fine = levels_[k];
+  const BlockRows& a = fine.a;
+  acc.cols.clear();
+  acc.values.clear();
+  for (std::int64_t e = fine.r.start[row]; e < fine.r.start[row + 1]; ++e) {
+    const std::int64_t i = fine.r.node[e];
+    const double wi = fine.r.weight[e];
+    for (std::int64_t blk = a.start[i]; blk < a.start[i + 1]; ++blk) {
+      const std::int64_t j = a.col[blk];
+      const double* block = a.value.data() + 9 * blk;
+      for (std::int64_t f = fine.p.start[j]; f < fine.p.start[j + 1]; ++f) {
+        const std::int64_t c = fine.p.node[f];
+        const double w = wi * fine.p.weight[f];
+        std::int64_t at = acc.slot_of[c];
+        if (at < 0) {
+          at = static_cast<std::int64_t>(acc.cols.size());
+          acc.slot_of[c] = at;
+          acc.cols.push_back(c);
+          acc.values.resize(acc.values.size() + 9, 0.0);
+        }
+        double* out = acc.values.data() + 9 * at;
+        for (int q = 0; q < 9; ++q) out[q] += w * block[q];
+      }
+    }
+  }
+  const std::size_t count = acc.cols.size();
+  acc.order.resize(count);
+  std::iota(acc.order.begin(), acc.order.end(), 0);
+  std::sort(acc.order.begin(), acc.order.end(),
+            [&](std::int64_t x, std::int64_t y) { return acc.cols[x] < acc.cols[y]; });
+  std::vector<std::int64_t>& cols = row_cols_[static_cast<std::size_t>(row)];
+  std::vector<double>& values = row_values_[static_cast<std::size_t>(row)];
+  cols.resize(count);
+  values.resize(9 * count);
+  for (std::size_t e = 0; e < count; ++e) {
+    const std::int64_t from = acc.order[e];
+    cols[e] = acc.cols[from];
+    std::copy_n(acc.values.data() + 9 * from, 9, values.data() + 9 * e);
+  }
+  for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
+}
+
+void VcyclePreconditioner::build_lines(Level& level, int d) {
+  Lines& l = level.lines[d];
+  const std::int64_t n = static_cast<std::int64_t>(level.i.size());
+  // Direction 0: lines of constant j along i; direction 1: constant i along j.
+  const std::vector<int>& key = d == 0 ? level.j : level.i;
+  const std::vector<int>& along = d == 0 ? level.i : level.j;
+  l.order.resize(static_cast<std::size_t>(n));
+  std::iota(l.order.begin(), l.order.end(), 0);
+  std::sort(l.order.begin(), l.order.end(), [&](std::int64_t a, std::int64_t b) {
+    return key[a] != key[b] ? key[a] < key[b] : along[a] < along[b];
+  });
+  l.start.clear();
+  l.line_of.assign(static_cast<std::size_t>(n), -1);
+  l.position.assign(static_cast<std::size_t>(n), -1);
+  int current = -1;
+  for (std::int64_t e = 0; e < n; ++e) {
+    const std::int64_t a = l.order[e];
+    if (key[a] != current) {
+      current = key[a];
+      l.start.push_back(e);
+    }
+    l.line_of[a] = static_cast<std::int64_t>(l.start.size()) - 1;
+    l.position[a] = e - l.start.back();
+  }
+  const std::int64_t lines = static_cast<std::int64_t>(l.start.size());
+  l.start.push_back(n);
+  // Widths and couplings between lines; greedy colours in line order.
+  l.width.assign(static_cast<std::size_t>(lines), 0);
+  std::vector<int> colour(static_cast<std::size_t>(lines), -1);
+  std::vector<char> used;
+  int colours = 0;
+  for (std::int64_t line = 0; line < lines; ++line) {
+    used.assign(static_cast<std::size_t>(colours) + 1, 0);
+    std::int64_t width = 2;
+    for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
+      const std::int64_t a = l.order[e];
+      for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
+        const std::int64_t b = level.a.col[blk];
+        const std::int64_t other = l.line_of[b];
+        if (other == line) {
+          width = std::max(width, 3 * std::abs(l.position[a] - l.position[b]) + 2);
+        } else if (colour[other] >= 0) {
+          used[colour[other]] = 1;
+        }
+      }
+    }
+    int pick = 0;
+    while (pick < colours && used[pick] != 0) ++pick;
+    colour[line] = pick;
+    colours = std::max(colours, pick + 1);
+    l.width[line] = static_cast<int>(width);
+  }
+  l.colour_start.assign(static_cast<std::size_t>(colours) + 1, 0);
+  for (std::int64_t line = 0; line < lines; ++line) ++l.colour_start[colour[line] + 1];
+  for (int c = 0; c < colours; ++c) l.colour_start[c + 1] += l.colour_start[c];
+  l.by_colour.assign(static_cast<std::size_t>(lines), 0);
+  std::vector<std::int64_t> fill(l.colour_start.begin(), l.colour_start.end() - 1);
+  for (std::int64_t line = 0; line < lines; ++line) l.by_colour[fill[colour[line]]++] = line;
+  l.band_start.assign(static_cast<std::size_t>(lines) + 1, 0);
+  for (std::int64_t line = 0; line < lines; ++line) {
+    l.band_start[line + 1] =
+        l.band_start[line] + 3 * (l.start[line + 1] - l.start[line]) * (l.width[line] + 1);
+  }
+  l.band.assign(static_cast<std::size_t>(l.band_start.back()), 0.0);
+  l.ok.assign(static_cast<std::size_t>(lines), 0);
+}
+
+void VcyclePreconditioner::factor_line(Level& level, int d, std::int64_t line) {
+  Lines& l = level.lines[d];
+  const int w = l.width[line];
+  double* band = l.band.data() + l.band_start[line];
+  const std::int64_t rows = 3 * (l.start[line + 1] - l.start[line]);
+  std::fill(band, band + rows * (w + 1), 0.0);
+  for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
+    const std::int64_t a = l.order[e];
+    const std::int64_t pa = l.position[a];
+    for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
+      const std::int64_t b = level.a.col[blk];
+      if (l.line_of[b] != line) continue;
+      const std::int64_t pb = l.position[b];
+      if (pb > pa) continue;
+      const double* block = level.a.value.data() + 9 * blk;
+      for (int r = 0; r < 3; ++r) {
+        const std::int64_t lr = 3 * pa + r;
+        for (int c = 0; c < 3; ++c) {
+          const std::int64_t lc = 3 * pb + c;
+          if (lc <= lr) band[lr * (w + 1) + lc - lr + w] += block[3 * r + c];
+        }
+      }
+    }
+  }
+  l.ok[line] = band_cholesky(band, rows, w) ? 1 : 0;
+}
+
+void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
+                                  const ModelHessian& hessian) {
+#pragma omp single
+  {
+    ++factorisations_;
+    const ClothMesh& mesh = ctx.mesh;
+    levels_.clear();
+    std::int64_t count = 0;
+    const std::vector<std::int64_t> unknown = free_unknowns(ctx, &count);
+    slot_of_node_.assign(static_cast<std::size_t>(count), -1);
+    Level fine;
+    fine.i.resize(static_cast<std::size_t>(count));
+    fine.j.resize(static_cast<std::size_t>(count));
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      if (unknown[s] < 0) continue;
+      slot_of_node_[unknown[s]] = s;
+      fine.i[unknown[s]] = mesh.grid_i(s);
+      fine.j[unknown[s]] = mesh.grid_j(s);
+    }
+    // Level 0's rows in two passes over the model's blocks: the columns of every row (sorted,
+    // distinct), then the blocks summed into them in assembly order (matrix()'s order).
+    BlockRows& a = fine.a;
+    std::vector<std::vector<std::int64_t>> pattern(static_cast<std::size_t>(count));
+    hessian.for_each_unknown_block(
+        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double*) {
+          std::vector<std::int64_t>& cols = pattern[static_cast<std::size_t>(row)];
+          if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
+        });
+    a.start.assign(1, 0);
+    a.col.clear();
+    for (std::vector<std::int64_t>& cols : pattern) {
+      std::sort(cols.begin(), cols.end());
+      a.col.insert(a.col.end(), cols.begin(), cols.end());
+      a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+      std::vector<std::int64_t>().swap(cols);
+    }
+    a.value.assign(9 * a.col.size(), 0.0);
+    hessian.for_each_unknown_block(
+        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double* block) {
+          const auto first = a.col.begin() + a.start[row], last = a.col.begin() + a.start[row + 1];
+          const std::int64_t at = std::lower_bound(first, last, col) - a.col.begin();
+          double* out = a.value.data() + 9 * at;
+          for (int q = 0; q < 9; ++q) out[q] += block[q];
+        });
+    levels_.push_back(std::move(fine));
+    // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
+    // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
+    // tried from the same level.
+    std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
+    int k = 0;
+    for (int s = 2;; s *= 2) {
+      const Coarsening made = coarsen(ctx, k, s, node_at);
+      if (made == Coarsening::coarsest) break;
+      if (made == Coarsening::level) ++k;
+    }
+    std::size_t widest = 0;
+    for (std::size_t l = 0; l < levels_.size(); ++l) {
+      Level& level = levels_[l];
+      const std::size_t rows = 3 * level.i.size();
+      level.x.assign(rows, 0.0);
+      level.b.assign(rows, 0.0);
+      level.res.assign(rows, 0.0);
+      level.scratch.assign(rows, 0.0);
+      if (l > 0) widest = std::max(widest, level.i.size());
+    }
+    const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
+    accumulators_.resize(static_cast<std::size_t>(threads));
+    for (Accumulator& acc : accumulators_) acc.slot_of.assign(widest, -1);
+  }  // the single's barrier publishes the levels
+  // The Galerkin products level by level, each coarse row on its own.
+  for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+    const std::int64_t rows = static_cast<std::int64_t>(levels_[k + 1].i.size());
+#pragma omp single
+    {
+      row_cols_.resize(static_cast<std::size_t>(rows));
+      row_values_.resize(static_cast<std::size_t>(rows));
+    }
+    run.for_index(rows, [&](std::int64_t row) {
+      galerkin_row(k, row, accumulators_[static_cast<std::size_t>(omp_get_thread_num())]);
+    });
+#pragma omp single
+    {
+      BlockRows& a = levels_[k + 1].a;
+      a.start.assign(1, 0);
+      a.col.clear();
+      a.value.clear();
+      for (std::int64_t row = 0; row < rows; ++row) {
+        const auto& cols = row_cols_[static_cast<std::size_t>(row)];
+        const auto& values = row_values_[static_cast<std::size_t>(row)];
+        a.col.insert(a.col.end(), cols.begin(), cols.end());
+        a.value.insert(a.value.end(), values.begin(), values.end());
+        a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+      }
+      // The rows live on in the level: no second copy between Newton iterations.
+      std::vector<std::vector<std::int64_t>>().swap(row_cols_);
+      std::vector<std::vector<double>>().swap(row_values_);
+    }
+  }
+#pragma omp single
+  {
+    for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+      for (int d = 0; d < 2; ++d) build_lines(levels_[k], d);
+    }
+    direct_ready_ = false;
+    if (!levels_.back().i.empty()) {
+      direct_.compute(level_operator(static_cast<int>(levels_.size()) - 1));
+      direct_ready_ = direct_.info() == Eigen::Success;
+      if (!direct_ready_) ++failures_;
+    }
+  }
+  // Every line of every smoothed level, a loop per level and direction.
+  for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+    for (int d = 0; d < 2; ++d) {
+      Level& level = levels_[k];
+      run.for_index(static_cast<std::int64_t>(level.lines[d].start.size()) - 1,
+                    [&](std::int64_t line) { factor_line(level, d, line); });
+    }
+  }
+#pragma omp single
+  {
+    for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+      for (const Lines& l : levels_[k].lines) {
+        for (const std::uint8_t ok : l.ok) failures_ += ok == 0 ? 1 : 0;
+      }
+    }
+  }
+}
+
+}  // namespace clothbench::kernels
