@@ -61,14 +61,29 @@ ModelHessian::ModelHessian(const ClothMesh& mesh) : dot_partials_(mesh.tile_coun
   bending_.assign(2 * slots, 0.0);
 }
 
-void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx) {
+void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step) {
   const ClothMesh& mesh = ctx.mesh;
-  const ClothState& st = ctx.state;
+  ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  // Within a step the model also reaches along the last Newton direction p: the positions
+  // x + p where the full step would have gone (ghosts at their parents' midpoints).
+  const bool reach = !new_step;
+  if (reach) refresh_ghosts(run, mesh, st.direction);
+  auto reached = [&](std::int64_t k) -> Eigen::Vector3d {
+    return vec3(st.position, k) + vec3(st.direction, k);
+  };
   run.for_each(ElementKind::edges, [&](std::int64_t id) {
     const EdgeTerm e = edge_term(ctx, id, x);
     const double w = mesh.edge_width[id];
-    edge_[2 * id] = w * e.slope / mesh.edge_rest[id];
+    double slope = e.slope;
+    if (reach) {  // the secant slope to where the last direction would take the edge
+      const EdgeTerm far = edge_term(ctx, id, reached);
+      const double delta = far.strain - e.strain;
+      if (delta != 0.0) slope = std::max(slope, (far.force - e.force) / delta);
+    }
+    double alpha = w * slope / mesh.edge_rest[id];
+    alpha = std::max(alpha, kStiffnessMemory * edge_[2 * id]);
+    edge_[2 * id] = alpha;
     edge_[2 * id + 1] = e.length > 0.0 ? w * std::max(e.force, 0.0) / e.length : 0.0;
   });
   run.for_each(ElementKind::triples, [&](std::int64_t id) {
@@ -83,7 +98,14 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx) {
                   .curves(std::numeric_limits<double>::min())
                   .upper_slope;
     }
-    bending_[id] = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
+    if (reach) {
+      const TripleTerm far = triple_term(ctx, id, reached);
+      const double delta = far.curvature - t.curvature;
+      if (delta != 0.0) slope = std::max(slope, (far.moment - t.moment) / delta);
+    }
+    double c = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
+    c = std::max(c, kStiffnessMemory * bending_[id]);
+    bending_[id] = c;
   });
 }
 

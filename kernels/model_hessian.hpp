@@ -13,6 +13,16 @@
 //                slope at zero curvature): positive semi-definite always, well defined at a
 //                straight triple where theta's own gradient is not, and the moment's own curvature
 //                term w M d2theta (indefinite) left out.
+// Within a step the axial and bending stiffnesses also look beyond the current point: where
+// the band has a kink (the ends of the hysteresis plateau, the onset of tension) the tangent
+// is blind to the wall the next step runs into, so each becomes
+//   max(tangent, secant from here to x + p, kStiffnessMemory x what the previous assembly gave),
+// with p the last Newton direction (the full step the model asked for) and the secant taken
+// on the same return mapping. Both only add positive stiffness, so H stays SPD; as the steps
+// shrink the secant tends to the tangent and the memory decays away. A step's first
+// assembly does not reach (p then belongs to the previous step) but does remember. On the
+// box drape this halves Newton's iterations (kernels/MODEL-NOTES.md, "The model reaches
+// along its last step").
 // Ghosts enter by the chain rule, as in the gradient: a vector is extended to every ghost by
 // the midpoint rule, and what a ghost receives goes half to each parent (ghost_nodes.hpp).
 //
@@ -22,6 +32,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <Eigen/SparseCore>
 #include <cstdint>
 #include <functional>
@@ -44,8 +55,12 @@ class ModelHessian {
   /// particles). `diagonal(s, block)` is called once for every active particle with its full
   /// 3x3 diagonal block (inertia, contact, every edge and triple touching it; zero for a
   /// pinned particle), for the preconditioners. Every thread of the region calls it.
+  /// `new_step`: the first assembly of a (sub-)step; later ones reach along the last Newton
+  /// direction (ctx.state.direction, whose ghost entries they overwrite with midpoints) and
+  /// remember the previous assembly's stiffness.
   template <class Diagonal>
-  void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal);
+  void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
+                bool new_step = true);
 
   /// y = H v on the free particles (0 elsewhere); returns v . y. v must be zero on every
   /// active particle that is not free; its ghost entries are overwritten (midpoints). Uses the
@@ -72,19 +87,29 @@ class ModelHessian {
                               const std::vector<std::int64_t>& unknown_of_slot,
                               const BlockVisitor& visit) const;
 
+  /// Drops the stiffness the next assembly would remember (kStiffnessMemory): it then starts
+  /// from the tangent and the secant alone. Sequential; outside a parallel region.
+  void forget() {
+    std::fill(edge_.begin(), edge_.end(), 0.0);
+    std::fill(bending_.begin(), bending_.end(), 0.0);
+  }
+
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
 
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Bytes per slot (memory estimates).
   static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2) * sizeof(double);
+  /// An element's axial or bending stiffness keeps at least this share of what the previous
+  /// assembly gave it (0.2-0.5 measured alike; 0.9 makes slack regions too stiff to move).
+  static constexpr double kStiffnessMemory = 0.3;
 
  private:
   /// Every thread; per particle: store the inertia block, call diagonal(s, full block).
   template <class Diagonal>
   void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal);
   /// Edge and triple coefficients at the current positions (two loops).
-  void assemble_elements(LoopRunner& run, const StepContext& ctx);
+  void assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step);
   /// The full diagonal block of particle s without inertia and contact: edges and triples.
   [[nodiscard]] Eigen::Matrix3d element_diagonal(const StepContext& ctx, std::int64_t s) const;
 
@@ -95,8 +120,9 @@ class ModelHessian {
 };
 
 template <class Diagonal>
-void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal) {
-  assemble_elements(run, ctx);
+void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
+                            bool new_step) {
+  assemble_elements(run, ctx, new_step);
   assemble_particles(run, ctx, diagonal);
 }
 

@@ -9,7 +9,7 @@
 
 namespace clothbench::kernels {
 
-void PotentialObjective::assemble_newton(LoopRunner& run) {
+void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
   ClothState& st = ctx_.state;
   LinePreconditioner* lines = lines_.get();
   const Preconditioner kind = ctx_.config.solver.preconditioner;
@@ -23,7 +23,7 @@ void PotentialObjective::assemble_newton(LoopRunner& run) {
                                              : Eigen::Matrix3d(block.inverse());
     }
     store_symmetric(st.preconditioner, s, inverse);
-  });
+  }, new_step);
   if (vcycle_ != nullptr) vcycle_->factor(run, ctx_, newton_->hessian);
   if (lines == nullptr) return;
   const ModelHessian& hessian = newton_->hessian;

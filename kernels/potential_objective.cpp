@@ -73,7 +73,11 @@ void PotentialObjective::begin_step(LoopRunner& run) {
       if (first) colour_for_smoothing(run);
     }
   }
-  refresh_preconditioner(run);
+  if (newton_ != nullptr) {
+    assemble_newton(run, /*new_step=*/true);
+  } else {
+    refresh_preconditioner(run);
+  }
 }
 
 Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id) const {

@@ -41,7 +41,8 @@ class PotentialObjective final : public StepObjective {
   /// Assembles the model Hessian and its preconditioner (block Jacobi, line solves on the
   /// model's blocks, or the multigrid over them) at the current positions;
   /// refresh_preconditioner calls it under Newton.
-  void assemble_newton(LoopRunner& run);
+  /// `new_step`: the step's first assembly (ModelHessian::assemble).
+  void assemble_newton(LoopRunner& run, bool new_step = false);
   /// Solves H p = -g inexactly by linear PCG (g: the gradient of the last evaluate, H the
   /// model assembled last), stopping when the weighted residual norm
   /// sqrt(sum |r_i|^2 / (m_i |g|)^2) is <= forcing times that of g, or after max_iterations.

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "kernel_fixtures.hpp"
+#include "kernels/potential_elements.hpp"
 #include "kernels/potential_objective.hpp"
 
 namespace clothbench {
@@ -155,6 +156,73 @@ TEST(ModelHessian, EqualsTheFiniteDifferenceJacobianOfTheGradientWhereTheModelIs
       EXPECT_GT(out_of_plane, 1.5 * inertia) << "bending stiffness is in the model";
     }
     EXPECT_LT(worst_block_difference(f), 1e-6) << (bent_before ? "loading" : "plateau");
+  }
+}
+
+TEST(ModelHessian, TakesTheSecantToWhereTheLastDirectionReachesAndRemembersItsStiffness) {
+  constexpr double keep = kernels::ModelHessian::kStiffnessMemory;
+  // Every edge of the 2 % stretched sheet on its plateau (previous force between the unloading
+  // and loading curves): the tangent is 0. A last direction that stretches the sheet by 3 %
+  // more takes every edge past the plateau: the model's axial stiffness is the secant there.
+  // Then, with no direction, the next assembly keeps kStiffnessMemory of it, and a new step
+  // reaches no further than the tangent but still remembers.
+  ModelFixture f(stretched_flat_sheet(7));
+  kernels::ClothState& st = f.sim.state();
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  auto x = [&](std::int64_t k) { return kernels::vec3(st.position, k); };
+  std::vector<std::int64_t> edges;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.edge_active[id]) continue;
+    edges.push_back(id);
+    const auto& band = f.sim.material().tensile[kernels::element_direction(id)];
+    const double strain = kernels::edge_term(f.ctx, id, x).strain;
+    st.edge_force[id] = 0.5 * (band.loading(strain) + band.unloading(strain));
+  }
+  ASSERT_FALSE(edges.empty());
+  auto axial = [&](std::int64_t id) {  // u^T K_e u of the assembled model
+    const Eigen::Vector3d e = x(mesh.next[id]) - x(kernels::element_slot(id));
+    const Eigen::Vector3d u = e.normalized();
+    return u.dot(f.objective.model_hessian()->edge_block(f.ctx, id) * u);
+  };
+  f.assemble();
+  for (std::int64_t id : edges) {
+    ASSERT_EQ(kernels::edge_term(f.ctx, id, x).slope, 0.0) << "edge " << id << " on its plateau";
+    EXPECT_EQ(axial(id), 0.0) << "edge " << id;
+  }
+  std::fill(st.direction.begin(), st.direction.end(), 0.0);
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (f.ctx.is_free(s)) kernels::vec3(st.direction, s) = 0.03 * x(s);  // centred sheet
+  }
+  auto reached = [&](std::int64_t k) -> Eigen::Vector3d {
+    // The fixture's pins stay: only free particles move.
+    return x(k) + kernels::vec3(st.direction, k);
+  };
+  std::vector<double> secant(static_cast<std::size_t>(2 * mesh.slot_count()), 0.0);
+  for (std::int64_t id : edges) {
+    const kernels::EdgeTerm now = kernels::edge_term(f.ctx, id, x);
+    const kernels::EdgeTerm far = kernels::edge_term(f.ctx, id, reached);
+    secant[id] = mesh.edge_width[id] * (far.force - now.force) / (far.strain - now.strain) /
+                 mesh.edge_rest[id];
+  }
+  f.assemble();
+  int past_plateau = 0;
+  for (std::int64_t id : edges) {
+    EXPECT_NEAR(axial(id), secant[id], 1e-9 * secant[id]) << "edge " << id;
+    if (secant[id] > 0.0) ++past_plateau;
+  }
+  EXPECT_GT(past_plateau, static_cast<int>(edges.size()) / 2);
+  std::fill(st.direction.begin(), st.direction.end(), 0.0);
+  f.assemble();
+  for (std::int64_t id : edges) {
+    EXPECT_NEAR(axial(id), keep * secant[id], 1e-9 * secant[id]) << "edge " << id;
+  }
+  // A step's first assembly does not reach along the previous step's direction.
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (f.ctx.is_free(s)) kernels::vec3(st.direction, s) = 0.03 * x(s);
+  }
+  f.run([&](kernels::LoopRunner& r) { f.objective.assemble_newton(r, /*new_step=*/true); });
+  for (std::int64_t id : edges) {
+    EXPECT_NEAR(axial(id), keep * keep * secant[id], 1e-9 * secant[id]) << "edge " << id;
   }
 }
 
