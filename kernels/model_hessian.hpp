@@ -82,16 +82,25 @@ class ModelHessian {
   using BlockVisitor = std::function<void(std::int64_t, std::int64_t, const double*)>;
   /// The blocks matrix() sums, in the same order (inertia and contact per particle, then edge
   /// and triple blocks by element id), each node expanded to its unknowns (also the V-cycle's
-  /// level 0). Sequential.
+  /// level 0). `structure`: every block of every active edge (also one of zero length) and of
+  /// every triple with bending stiffness, each as a zero block: the pattern of every model on
+  /// this mesh whose triples with bending stiffness are these (bending_pattern). Sequential.
   void for_each_unknown_block(const StepContext& ctx,
                               const std::vector<std::int64_t>& unknown_of_slot,
-                              const BlockVisitor& visit) const;
+                              const BlockVisitor& visit, bool structure = false) const;
 
   /// Drops the stiffness the next assembly would remember (kStiffnessMemory): it then starts
   /// from the tangent and the secant alone. Sequential; outside a parallel region.
   void forget() {
     std::fill(edge_.begin(), edge_.end(), 0.0);
     std::fill(bending_.begin(), bending_.end(), 0.0);
+  }
+
+  /// One byte per element id: 1 where the assembled model has bending stiffness (the triples
+  /// that add blocks besides their edges'). Sequential.
+  void bending_pattern(std::vector<std::uint8_t>& out) const {
+    out.resize(bending_.size());
+    for (std::size_t id = 0; id < bending_.size(); ++id) out[id] = bending_[id] > 0.0 ? 1 : 0;
   }
 
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).

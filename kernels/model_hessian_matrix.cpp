@@ -66,7 +66,7 @@ Eigen::SparseMatrix<double> ModelHessian::matrix(const StepContext& ctx,
 
 void ModelHessian::for_each_unknown_block(const StepContext& ctx,
                                           const std::vector<std::int64_t>& unknown_of_slot,
-                                          const BlockVisitor& visit) const {
+                                          const BlockVisitor& visit, bool structure) const {
   const ClothMesh& mesh = ctx.mesh;
   const ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -88,6 +88,27 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
     }
   };
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  if (structure) {
+    const Eigen::Matrix3d zero = Eigen::Matrix3d::Zero();
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      if (unknown_of_slot[s] >= 0) add(s, s, zero);
+    }
+    for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+      if (mesh.edge_active[id]) {
+        const std::int64_t node[2] = {element_slot(id), mesh.next[id]};
+        for (const std::int64_t r : node) {
+          for (const std::int64_t q : node) add(r, q, zero);
+        }
+      }
+      if (mesh.triple_active[id] && bending_[id] > 0.0) {
+        const std::int64_t node[3] = {mesh.prev[id], element_slot(id), mesh.next[id]};
+        for (const std::int64_t r : node) {
+          for (const std::int64_t q : node) add(r, q, zero);
+        }
+      }
+    }
+    return;
+  }
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
     if (unknown_of_slot[s] >= 0) add(s, s, load_block(inertia_, s));
   }

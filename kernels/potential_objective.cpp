@@ -59,19 +59,10 @@ void PotentialObjective::begin_step(LoopRunner& run) {
         if (ctx_.is_free(s)) vec3(st.position, s) = initial_guess(ctx_, s, 1.0, mask);
       });
   refresh_ghosts(run, ctx_.mesh, st.position);
-  // The colouring follows the active set (AMRC) and the pins (scripted events); without either
-  // it is made once.
-  const bool mesh_may_change = ctx_.config.amrc.enabled || !ctx_.config.events.empty();
+  // The colouring follows the active set (AMRC) and the pins (scripted events): it is made
+  // again only when they changed.
   if (newton_ != nullptr && effective_smoothing_sweeps(ctx_.config.solver) > 0) {
-    if (mesh_may_change) {
-      colour_for_smoothing(run);
-    } else {
-      // Every thread must take the same branch: all of them read the (shared) colouring
-      // before the single inside colour_for_smoothing may fill it.
-      const bool first = smoothing_colour_.empty();
-#pragma omp barrier
-      if (first) colour_for_smoothing(run);
-    }
+    colour_for_smoothing(run);
   }
   if (newton_ != nullptr) {
     assemble_newton(run, /*new_step=*/true);

@@ -13,6 +13,7 @@
 #include "kernels/vcycle_preconditioner.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/step_context.hpp"
+#include "kernels/topology_key.hpp"
 #include "kernels/step_objective.hpp"
 
 namespace clothbench::kernels {
@@ -60,8 +61,8 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] VcyclePreconditioner* vcycle() { return vcycle_.get(); }
 
   /// Colours the free particles for `smooth` (every thread calls it; one colours, greedy in
-  /// slot order, so that no element touches two particles of one colour); again after every
-  /// change of the active set or of the pins.
+  /// slot order, so that no element touches two particles of one colour); again only when
+  /// the active set or the pins changed (TopologyKey).
   void colour_for_smoothing(LoopRunner& run);
   /// Nonlinear block Gauss-Seidel (kernels/potential_smoothing.cpp): `sweeps` sweeps, colour by
   /// colour, in which a free particle whose normalised residual |g_i| / (m_i |g|) is at least
@@ -111,6 +112,7 @@ class PotentialObjective final : public StepObjective {
   std::vector<int> smoothing_colour_;
   std::vector<std::vector<std::int64_t>> smoothing_lists_;
   std::vector<int> smoothing_moved_;
+  TopologyKey smoothing_topology_;  ///< the mesh the colouring was made for
 };
 
 }  // namespace clothbench::kernels

@@ -57,7 +57,7 @@ void for_each_footprint(const ClothMesh& mesh, std::int64_t s, F&& f) {
 
 void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
 #pragma omp single
-  {
+  if (!smoothing_topology_.matches(ctx_.mesh)) {
     const ClothMesh& mesh = ctx_.mesh;
     const std::int64_t slots = mesh.slot_count();
     smoothing_colour_.assign(static_cast<std::size_t>(slots), -1);
@@ -76,6 +76,7 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
       smoothing_colour_[s] = static_cast<int>(colour);
     }
     smoothing_moved_.assign(static_cast<std::size_t>(slots), 0);
+    smoothing_topology_.take(mesh);
   }  // the single's closing barrier publishes the colouring
 }
 

@@ -385,6 +385,17 @@ std::vector<double> Simulation::contact_forces() const {
   return forces;
 }
 
+Simulation::VcycleWork Simulation::vcycle_work() const {
+  VcycleWork work;
+  const VcyclePreconditioner* v = newton_objective_ == nullptr ? nullptr : newton_objective_->vcycle();
+  if (v != nullptr) {
+    work.factorisations = v->factorisations();
+    work.structures = v->structures();
+    work.sequential_seconds = v->sequential_seconds();
+  }
+  return work;
+}
+
 std::size_t Simulation::memory_bytes() const {
   std::size_t b = state_.memory_bytes() + lists_.memory_bytes() + objective_->memory_bytes();
   if (amrc_) b += amrc_->memory_bytes();

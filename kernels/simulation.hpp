@@ -139,6 +139,13 @@ class Simulation {
   void set_broad_phase(bool on) { config_.contact.broad_phase = on; }
   /// Narrow-phase contact pairs tested / skipped over every evaluation so far.
   [[nodiscard]] const ContactWork& contact_work() const { return objective_->contact_work(); }
+  /// The V-cycle preconditioner's set-up so far (all zero without one).
+  struct VcycleWork {
+    std::int64_t factorisations = 0;  ///< one per Newton iteration
+    std::int64_t structures = 0;      ///< hierarchies made anew (after topology changes)
+    double sequential_seconds = 0.0;  ///< set-up time spent on one thread
+  };
+  [[nodiscard]] VcycleWork vcycle_work() const;
 
   /// How the Active-Lists are rebuilt after an AMRC event (parallel prefix sum by default).
   void set_list_build(ListBuild build) { list_build_ = build; }

@@ -187,7 +187,8 @@ Eigen::SparseMatrix<double> VcyclePreconditioner::prolongation(int k) const {
 }
 
 std::size_t VcyclePreconditioner::memory_bytes() const {
-  std::size_t bytes = slot_of_node_.capacity() * sizeof(std::int64_t);
+  std::size_t bytes = (slot_of_node_.capacity() + unknown_.capacity()) * sizeof(std::int64_t) +
+                      topology_.memory_bytes() + bending_.capacity() + bending_now_.capacity();
   for (const Accumulator& acc : accumulators_) {
     bytes += (acc.slot_of.capacity() + acc.cols.capacity() + acc.order.capacity()) *
                  sizeof(std::int64_t) +

@@ -40,6 +40,7 @@
 #include "kernels/loop_runner.hpp"
 #include "kernels/model_hessian.hpp"
 #include "kernels/step_context.hpp"
+#include "kernels/topology_key.hpp"
 
 namespace clothbench::kernels {
 
@@ -53,9 +54,13 @@ class VcyclePreconditioner {
   void set_coarsest_nodes(std::int64_t nodes) { coarsest_nodes_ = nodes; }
 
   /// Builds the hierarchy for the current model, then factorises every line of every level.
-  /// Level 0's blocks, the prolongations and the lines are made on one thread; the Galerkin
-  /// products (by coarse rows) and the line factorisations run through the LoopRunner. Every
-  /// thread of the region calls it.
+  /// The hierarchy's structure (level 0's nodes and pattern, the coarser levels and their
+  /// prolongations, the Galerkin patterns, the lines and their colours, the coarsest level's
+  /// ordering) depends only on the mesh's topology and on which triples have bending stiffness
+  /// in the model: it is made again only when one of them differs from the last factor() (an
+  /// AMRC event, a released pin, a triple leaving its plateau), else only the values are. Level 0's values, a new structure and the
+  /// coarsest factorisation are made on one thread; the Galerkin products (by coarse rows) and
+  /// the line factorisations run through the LoopRunner. Every thread of the region calls it.
   void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
   /// calls it; ends after a barrier.
@@ -83,6 +88,12 @@ class VcyclePreconditioner {
   [[nodiscard]] Eigen::SparseMatrix<double> level_operator(int k) const;
   [[nodiscard]] Eigen::SparseMatrix<double> prolongation(int k) const;
   [[nodiscard]] std::int64_t factorisations() const { return factorisations_; }
+  /// factor() calls that made the structure anew (the first, and one after every change of
+  /// the mesh's topology).
+  [[nodiscard]] std::int64_t structures() const { return structures_; }
+  /// Wall time factor() spent on one thread (level 0's values, structures, the coarsest
+  /// factorisation): the V-cycle's sequential share of a run.
+  [[nodiscard]] double sequential_seconds() const { return sequential_seconds_; }
   /// Line or coarsest factorisations that found a non-positive pivot (the model was not SPD;
   /// the failing line or level is then left out of the cycle).
   [[nodiscard]] std::int64_t failures() const { return failures_; }
@@ -93,8 +104,10 @@ class VcyclePreconditioner {
   /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
   /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
   /// 2.37 kB a slot measured on a 129^2 sheet).
+  /// Plus, a slot of the mesh, the structure's topology key and the unknown of every slot.
   static constexpr std::size_t kBytesPerSlot =
-      (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3;
+      (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 +
+      TopologyKey::kBytesPerSlot + 8 + 2 * 2;
 
  private:
   /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
@@ -145,8 +158,12 @@ class VcyclePreconditioner {
   /// more than 4/5 of level k's nodes; coarsest when level k is small enough or nothing
   /// coarser exists.
   Coarsening coarsen(const StepContext& ctx, int k, int s, std::vector<std::int64_t>& node_at);
-  /// Row `row` of level k+1's operator P^T A P (one thread per row).
-  void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc);
+  /// One thread: level 0's nodes and pattern, the coarser levels and their prolongations;
+  /// remembers the topology they were made for.
+  void make_structure(const StepContext& ctx, const ModelHessian& hessian);
+  /// Row `row` of level k+1's operator P^T A P (one thread per row): into row_cols_ and
+  /// row_values_ when `pattern` (a new structure), else into the level's values in place.
+  void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc, bool pattern);
   /// One thread: lines of a level along direction d, their colours and band widths.
   void build_lines(Level& level, int d);
   void factor_line(Level& level, int d, std::int64_t line);
@@ -156,6 +173,12 @@ class VcyclePreconditioner {
 
   std::vector<Level> levels_;
   std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
+  std::vector<std::int64_t> unknown_;                ///< slot -> level 0 node, or -1
+  TopologyKey topology_;                             ///< the mesh the structure was made for,
+  std::vector<std::uint8_t> bending_, bending_now_;  ///< its triples with bending stiffness
+  std::int64_t structure_coarsest_ = -1;             ///< and its coarsest size
+  bool new_structure_ = false;  ///< written in factor()'s first single, read after it
+  std::size_t widest_ = 0;      ///< nodes of the largest coarse level (accumulators)
   std::vector<Accumulator> accumulators_;            ///< one per thread
   std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin rows before concatenation
   std::vector<std::vector<double>> row_values_;
@@ -164,6 +187,8 @@ class VcyclePreconditioner {
   Eigen::VectorXd coarse_b_, coarse_x_;
   std::int64_t coarsest_nodes_ = kCoarsestNodes;
   std::int64_t factorisations_ = 0;
+  std::int64_t structures_ = 0;
+  double sequential_seconds_ = 0.0;
   std::int64_t failures_ = 0;
 };
 

@@ -175,7 +175,8 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext
   return Coarsening::level;
 }
 
-void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc) {
+void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc,
+                                        bool pattern) {
   const Level& fine = levels_[k];
   const BlockRows& a = fine.a;
   acc.cols.clear();
@@ -206,14 +207,23 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
   std::iota(acc.order.begin(), acc.order.end(), 0);
   std::sort(acc.order.begin(), acc.order.end(),
             [&](std::int64_t x, std::int64_t y) { return acc.cols[x] < acc.cols[y]; });
-  std::vector<std::int64_t>& cols = row_cols_[static_cast<std::size_t>(row)];
-  std::vector<double>& values = row_values_[static_cast<std::size_t>(row)];
-  cols.resize(count);
-  values.resize(9 * count);
-  for (std::size_t e = 0; e < count; ++e) {
-    const std::int64_t from = acc.order[e];
-    cols[e] = acc.cols[from];
-    std::copy_n(acc.values.data() + 9 * from, 9, values.data() + 9 * e);
+  if (pattern) {
+    std::vector<std::int64_t>& cols = row_cols_[static_cast<std::size_t>(row)];
+    std::vector<double>& values = row_values_[static_cast<std::size_t>(row)];
+    cols.resize(count);
+    values.resize(9 * count);
+    for (std::size_t e = 0; e < count; ++e) {
+      const std::int64_t from = acc.order[e];
+      cols[e] = acc.cols[from];
+      std::copy_n(acc.values.data() + 9 * from, 9, values.data() + 9 * e);
+    }
+  } else {
+    // The same products in the same order as when the pattern was made: only the values.
+    BlockRows& coarse = levels_[k + 1].a;
+    double* values = coarse.value.data() + 9 * coarse.start[row];
+    for (std::size_t e = 0; e < count; ++e) {
+      std::copy_n(acc.values.data() + 9 * acc.order[e], 9, values + 9 * e);
+    }
   }
   for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
 }
@@ -312,115 +322,154 @@ void VcyclePreconditioner::factor_line(Level& level, int d, std::int64_t line) {
   l.ok[line] = band_cholesky(band, rows, w) ? 1 : 0;
 }
 
+void VcyclePreconditioner::make_structure(const StepContext& ctx, const ModelHessian& hessian) {
+  const ClothMesh& mesh = ctx.mesh;
+  ++structures_;
+  levels_.clear();
+  std::int64_t count = 0;
+  unknown_ = free_unknowns(ctx, &count);
+  slot_of_node_.assign(static_cast<std::size_t>(count), -1);
+  Level fine;
+  fine.i.resize(static_cast<std::size_t>(count));
+  fine.j.resize(static_cast<std::size_t>(count));
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (unknown_[s] < 0) continue;
+    slot_of_node_[unknown_[s]] = s;
+    fine.i[unknown_[s]] = mesh.grid_i(s);
+    fine.j[unknown_[s]] = mesh.grid_j(s);
+  }
+  // Level 0's pattern: the columns of every row (sorted, distinct) that any model on this
+  // topology can fill.
+  BlockRows& a = fine.a;
+  std::vector<std::vector<std::int64_t>> pattern(static_cast<std::size_t>(count));
+  hessian.for_each_unknown_block(
+      ctx, unknown_,
+      [&](std::int64_t row, std::int64_t col, const double*) {
+        std::vector<std::int64_t>& cols = pattern[static_cast<std::size_t>(row)];
+        if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
+      },
+      /*structure=*/true);
+  a.start.assign(1, 0);
+  a.col.clear();
+  for (std::vector<std::int64_t>& cols : pattern) {
+    std::sort(cols.begin(), cols.end());
+    a.col.insert(a.col.end(), cols.begin(), cols.end());
+    a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+    std::vector<std::int64_t>().swap(cols);
+  }
+  a.value.assign(9 * a.col.size(), 0.0);
+  levels_.push_back(std::move(fine));
+  // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
+  // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
+  // tried from the same level.
+  std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
+  int k = 0;
+  for (int s = 2;; s *= 2) {
+    const Coarsening made = coarsen(ctx, k, s, node_at);
+    if (made == Coarsening::coarsest) break;
+    if (made == Coarsening::level) ++k;
+  }
+  widest_ = 0;
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    Level& level = levels_[l];
+    const std::size_t rows = 3 * level.i.size();
+    level.x.assign(rows, 0.0);
+    level.b.assign(rows, 0.0);
+    level.res.assign(rows, 0.0);
+    level.scratch.assign(rows, 0.0);
+    if (l > 0) widest_ = std::max(widest_, level.i.size());
+  }
+  accumulators_.clear();
+  topology_.take(mesh);
+  bending_.swap(bending_now_);
+  structure_coarsest_ = coarsest_nodes_;
+}
+
 void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
                                   const ModelHessian& hessian) {
 #pragma omp single
   {
+    const double started = omp_get_wtime();
     ++factorisations_;
-    const ClothMesh& mesh = ctx.mesh;
-    levels_.clear();
-    std::int64_t count = 0;
-    const std::vector<std::int64_t> unknown = free_unknowns(ctx, &count);
-    slot_of_node_.assign(static_cast<std::size_t>(count), -1);
-    Level fine;
-    fine.i.resize(static_cast<std::size_t>(count));
-    fine.j.resize(static_cast<std::size_t>(count));
-    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-      if (unknown[s] < 0) continue;
-      slot_of_node_[unknown[s]] = s;
-      fine.i[unknown[s]] = mesh.grid_i(s);
-      fine.j[unknown[s]] = mesh.grid_j(s);
-    }
-    // Level 0's rows in two passes over the model's blocks: the columns of every row (sorted,
-    // distinct), then the blocks summed into them in assembly order (matrix()'s order).
-    BlockRows& a = fine.a;
-    std::vector<std::vector<std::int64_t>> pattern(static_cast<std::size_t>(count));
+    hessian.bending_pattern(bending_now_);
+    new_structure_ = !topology_.matches(ctx.mesh) || structure_coarsest_ != coarsest_nodes_ ||
+                     bending_now_ != bending_;
+    if (new_structure_) make_structure(ctx, hessian);
+    // Level 0's values: the model's blocks summed into the pattern in assembly order
+    // (matrix()'s order).
+    BlockRows& a = levels_.front().a;
+    std::fill(a.value.begin(), a.value.end(), 0.0);
     hessian.for_each_unknown_block(
-        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double*) {
-          std::vector<std::int64_t>& cols = pattern[static_cast<std::size_t>(row)];
-          if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
-        });
-    a.start.assign(1, 0);
-    a.col.clear();
-    for (std::vector<std::int64_t>& cols : pattern) {
-      std::sort(cols.begin(), cols.end());
-      a.col.insert(a.col.end(), cols.begin(), cols.end());
-      a.start.push_back(static_cast<std::int64_t>(a.col.size()));
-      std::vector<std::int64_t>().swap(cols);
-    }
-    a.value.assign(9 * a.col.size(), 0.0);
-    hessian.for_each_unknown_block(
-        ctx, unknown, [&](std::int64_t row, std::int64_t col, const double* block) {
+        ctx, unknown_, [&](std::int64_t row, std::int64_t col, const double* block) {
           const auto first = a.col.begin() + a.start[row], last = a.col.begin() + a.start[row + 1];
           const std::int64_t at = std::lower_bound(first, last, col) - a.col.begin();
           double* out = a.value.data() + 9 * at;
           for (int q = 0; q < 9; ++q) out[q] += block[q];
         });
-    levels_.push_back(std::move(fine));
-    // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
-    // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
-    // tried from the same level.
-    std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
-    int k = 0;
-    for (int s = 2;; s *= 2) {
-      const Coarsening made = coarsen(ctx, k, s, node_at);
-      if (made == Coarsening::coarsest) break;
-      if (made == Coarsening::level) ++k;
-    }
-    std::size_t widest = 0;
-    for (std::size_t l = 0; l < levels_.size(); ++l) {
-      Level& level = levels_[l];
-      const std::size_t rows = 3 * level.i.size();
-      level.x.assign(rows, 0.0);
-      level.b.assign(rows, 0.0);
-      level.res.assign(rows, 0.0);
-      level.scratch.assign(rows, 0.0);
-      if (l > 0) widest = std::max(widest, level.i.size());
-    }
     const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
-    accumulators_.resize(static_cast<std::size_t>(threads));
-    for (Accumulator& acc : accumulators_) acc.slot_of.assign(widest, -1);
-  }  // the single's barrier publishes the levels
+    if (accumulators_.size() < static_cast<std::size_t>(threads)) {
+      accumulators_.resize(static_cast<std::size_t>(threads));
+      for (Accumulator& acc : accumulators_) acc.slot_of.resize(widest_, -1);
+    }
+    sequential_seconds_ += omp_get_wtime() - started;
+  }  // the single's barrier publishes the levels and new_structure_
+  const bool pattern = new_structure_;
   // The Galerkin products level by level, each coarse row on its own.
   for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
     const std::int64_t rows = static_cast<std::int64_t>(levels_[k + 1].i.size());
+    if (pattern) {
 #pragma omp single
-    {
-      row_cols_.resize(static_cast<std::size_t>(rows));
-      row_values_.resize(static_cast<std::size_t>(rows));
+      {
+        row_cols_.resize(static_cast<std::size_t>(rows));
+        row_values_.resize(static_cast<std::size_t>(rows));
+      }
     }
     run.for_index(rows, [&](std::int64_t row) {
-      galerkin_row(k, row, accumulators_[static_cast<std::size_t>(omp_get_thread_num())]);
+      galerkin_row(k, row, accumulators_[static_cast<std::size_t>(omp_get_thread_num())],
+                   pattern);
     });
+    if (pattern) {
 #pragma omp single
-    {
-      BlockRows& a = levels_[k + 1].a;
-      a.start.assign(1, 0);
-      a.col.clear();
-      a.value.clear();
-      for (std::int64_t row = 0; row < rows; ++row) {
-        const auto& cols = row_cols_[static_cast<std::size_t>(row)];
-        const auto& values = row_values_[static_cast<std::size_t>(row)];
-        a.col.insert(a.col.end(), cols.begin(), cols.end());
-        a.value.insert(a.value.end(), values.begin(), values.end());
-        a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+      {
+        const double started = omp_get_wtime();
+        BlockRows& a = levels_[k + 1].a;
+        a.start.assign(1, 0);
+        a.col.clear();
+        a.value.clear();
+        for (std::int64_t row = 0; row < rows; ++row) {
+          const auto& cols = row_cols_[static_cast<std::size_t>(row)];
+          const auto& values = row_values_[static_cast<std::size_t>(row)];
+          a.col.insert(a.col.end(), cols.begin(), cols.end());
+          a.value.insert(a.value.end(), values.begin(), values.end());
+          a.start.push_back(static_cast<std::int64_t>(a.col.size()));
+        }
+        // The rows live on in the level: no second copy between Newton iterations.
+        std::vector<std::vector<std::int64_t>>().swap(row_cols_);
+        std::vector<std::vector<double>>().swap(row_values_);
+        sequential_seconds_ += omp_get_wtime() - started;
       }
-      // The rows live on in the level: no second copy between Newton iterations.
-      std::vector<std::vector<std::int64_t>>().swap(row_cols_);
-      std::vector<std::vector<double>>().swap(row_values_);
     }
   }
 #pragma omp single
   {
-    for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
-      for (int d = 0; d < 2; ++d) build_lines(levels_[k], d);
+    const double started = omp_get_wtime();
+    if (pattern) {
+      for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+        for (int d = 0; d < 2; ++d) build_lines(levels_[k], d);
+      }
     }
     direct_ready_ = false;
     if (!levels_.back().i.empty()) {
-      direct_.compute(level_operator(static_cast<int>(levels_.size()) - 1));
+      // The coarsest pattern holds every block the topology allows (zeros included), so its
+      // ordering is made once a structure.
+      const Eigen::SparseMatrix<double> coarsest =
+          level_operator(static_cast<int>(levels_.size()) - 1);
+      if (pattern) direct_.analyzePattern(coarsest);
+      direct_.factorize(coarsest);
       direct_ready_ = direct_.info() == Eigen::Success;
       if (!direct_ready_) ++failures_;
     }
+    sequential_seconds_ += omp_get_wtime() - started;
   }
   // Every line of every smoothed level, a loop per level and direction.
   for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {

@@ -119,6 +119,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
   summary.final_state = simulation.diagnostics();
   summary.simulation_bytes = simulation.memory_bytes();
   summary.contact_work = simulation.contact_work();
+  summary.vcycle = simulation.vcycle_work();
   // The one verifier (verify.hpp) judges the final state; a non-finite value that stopped
   // the run is already named above, with its step.
   Verification final_check;
@@ -167,6 +168,12 @@ void print_summary(const RunSummary& s) {
                "({:.3f} % of the run) in criterion + mesh update + list rebuild\n",
                s.amrc_events.size(), last.particles, s.amrc_seconds,
                s.wall_seconds > 0 ? 100.0 * s.amrc_seconds / s.wall_seconds : 0.0);
+  }
+  if (s.vcycle.factorisations > 0) {
+    fmt::print("  V-cycle set-up           {} factorisations, {} structures; {:.3f} s ({:.3f} % of "
+               "the run) on one thread\n",
+               s.vcycle.factorisations, s.vcycle.structures, s.vcycle.sequential_seconds,
+               s.wall_seconds > 0 ? 100.0 * s.vcycle.sequential_seconds / s.wall_seconds : 0.0);
   }
   fmt::print("  memory                   {:.1f} MiB simulation, {:.1f} MiB peak resident\n",
              static_cast<double>(s.simulation_bytes) / (1 << 20),
@@ -241,6 +248,13 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
   doc["contact_work"] = {{"tested", s.contact_work.tested},
                          {"skipped", s.contact_work.skipped},
                          {"evaluations", s.contact_work.evaluations}};
+  if (s.vcycle.factorisations > 0) {
+    doc["vcycle_setup"] = {
+        {"factorisations", s.vcycle.factorisations},
+        {"structures", s.vcycle.structures},
+        {"sequential_seconds", s.vcycle.sequential_seconds},
+        {"share_of_wall", s.wall_seconds > 0 ? s.vcycle.sequential_seconds / s.wall_seconds : 0.0}};
+  }
   if (!s.non_finite.empty()) doc["non_finite"] = {{"step", s.non_finite_step}, {"where", s.non_finite}};
   if (scene.simulation.amrc.enabled) {
     nlohmann::json events = nlohmann::json::array();

@@ -59,6 +59,7 @@ struct RunSummary {
   std::vector<AppliedEvent> events;             ///< every scripted event that began, in order
   kernels::ContactWork contact_work;            ///< narrow-phase contact pairs, all evaluations
   double amrc_seconds = 0.0;  ///< criterion + mesh update + list rebuild, all events
+  kernels::Simulation::VcycleWork vcycle;      ///< the V-cycle's set-up (zeros without one)
   /// Where the first non-finite value appeared ("" if none): the run stopped at that step.
   std::string non_finite;
   int non_finite_step = 0;

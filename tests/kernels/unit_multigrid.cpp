@@ -376,6 +376,89 @@ TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
   }
 }
 
+/// The model anew at the current state: no stiffness remembered, no last direction (so that
+/// fixtures reaching the same state by different paths assemble the same model).
+void assemble_afresh(Fixture& f) {
+  f.objective.model_hessian()->forget();
+  std::fill(f.sim.state().direction.begin(), f.sim.state().direction.end(), 0.0);
+  f.assemble();
+}
+
+/// Every level's operator and one cycle of `a` and `b` have the same bits.
+void expect_same_hierarchy(Fixture& a, Fixture& b, const char* what) {
+  const kernels::VcyclePreconditioner& va = *a.objective.vcycle();
+  const kernels::VcyclePreconditioner& vb = *b.objective.vcycle();
+  ASSERT_EQ(va.levels(), vb.levels()) << what;
+  for (int k = 0; k < va.levels(); ++k) {
+    const Eigen::MatrixXd oa = Eigen::MatrixXd(va.level_operator(k));
+    const Eigen::MatrixXd ob = Eigen::MatrixXd(vb.level_operator(k));
+    ASSERT_EQ(oa.rows(), ob.rows()) << what << ", level " << k;
+    EXPECT_TRUE(oa == ob) << what << ", level " << k;
+  }
+  const std::vector<double> r = a.random_free(11);
+  EXPECT_TRUE(a.precondition(r) == b.precondition(r)) << what;
+}
+
+TEST(Vcycle, TheHierarchyIsMadeOncePerTopologyAndMatchesOneMadeAnew) {
+  // `kept` factorises at a first state, then with other values on the same mesh (values
+  // only), then where other triples bend and after an AMRC edit (new structures); each time
+  // it must equal a preconditioner made at that state from nothing.
+  auto start = [](Fixture& f) {
+    f.grade();
+    f.objective.vcycle()->set_coarsest_nodes(4);
+    testing::randomise_state(f.sim, 3);
+  };
+  auto edit = [](Fixture& f) {
+    kernels::AdaptiveMesh& tree = f.sim.begin_tree_edit();
+    EXPECT_TRUE(tree.coarsen(kernels::TreeCell{1, 0, 1}, f.sim.mesh()));
+    f.sim.end_tree_edit();
+  };
+  Fixture kept(graded_cloth(true, Preconditioner::vcycle));
+  start(kept);
+  assemble_afresh(kept);
+  const kernels::VcyclePreconditioner& v = *kept.objective.vcycle();
+  ASSERT_GE(v.levels(), 3);
+  EXPECT_EQ(v.structures(), 1);
+  const Eigen::MatrixXd first = Eigen::MatrixXd(v.level_operator(1));
+  // A shorter time step: every inertia block changes, the pattern does not.
+  auto shorter_step = [](Fixture& f) { f.objective.set_step_length(0.5 * f.sim.config().time.step); };
+  shorter_step(kept);
+  assemble_afresh(kept);
+  EXPECT_EQ(v.factorisations(), 2);
+  EXPECT_EQ(v.structures(), 1);  // same topology and bending pattern: values only
+  EXPECT_FALSE(Eigen::MatrixXd(v.level_operator(1)) == first);
+  {
+    Fixture made(graded_cloth(true, Preconditioner::vcycle));
+    start(made);
+    shorter_step(made);
+    assemble_afresh(made);
+    expect_same_hierarchy(kept, made, "same topology, new values");
+  }
+  testing::randomise_state(kept.sim, 7);  // other triples bend: a new pattern
+  assemble_afresh(kept);
+  EXPECT_EQ(v.structures(), 2);
+  {
+    Fixture made(graded_cloth(true, Preconditioner::vcycle));
+    start(made);
+    shorter_step(made);
+    testing::randomise_state(made.sim, 7);
+    assemble_afresh(made);
+    expect_same_hierarchy(kept, made, "other triples with bending stiffness");
+  }
+  edit(kept);
+  assemble_afresh(kept);
+  EXPECT_EQ(v.structures(), 3);  // the mesh changed: a new structure
+  Fixture made(graded_cloth(true, Preconditioner::vcycle));
+  start(made);
+  shorter_step(made);
+  testing::randomise_state(made.sim, 7);
+  edit(made);
+  assemble_afresh(made);
+  expect_same_hierarchy(kept, made, "after an AMRC edit");
+  EXPECT_EQ(v.failures(), 0);
+  EXPECT_GT(v.sequential_seconds(), 0.0);
+}
+
 TEST(Vcycle, MemoryEstimateCoversWhatTheCycleHoldsOnAUniformSheet) {
   // After the step's first factorisation on a 129^2 sheet (the finest level, every line).
   Fixture f(stretched_sheet(129, Preconditioner::vcycle));

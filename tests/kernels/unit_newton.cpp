@@ -325,6 +325,40 @@ void owners_of(const kernels::ClothMesh& mesh, std::int64_t k, std::vector<std::
   owners_of(mesh, mesh.next[id], out);
 }
 
+/// Every element's nodes, ghosts resolved into the particles that move them: no two of one
+/// colour (else two threads would change one element's energy at once); every free particle
+/// and only those coloured.
+void expect_valid_colouring(ModelFixture& f) {
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  const std::vector<int>& colour = f.objective.smoothing_colours();
+  ASSERT_EQ(colour.size(), static_cast<std::size_t>(mesh.slot_count()));
+  int elements = 0;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    std::vector<std::int64_t> nodes;
+    const std::int64_t slot = kernels::element_slot(id);
+    if (mesh.edge_active[id]) nodes = {slot, mesh.next[id]};
+    if (mesh.triple_active[id]) nodes = {mesh.prev[id], slot, mesh.next[id]};
+    if (nodes.empty()) continue;
+    std::vector<std::int64_t> owners;
+    for (std::int64_t k : nodes) owners_of(mesh, k, owners);
+    std::sort(owners.begin(), owners.end());
+    owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+    for (std::size_t a = 0; a < owners.size(); ++a) {
+      for (std::size_t b = a + 1; b < owners.size(); ++b) {
+        if (colour[owners[a]] < 0 || colour[owners[b]] < 0) continue;
+        EXPECT_NE(colour[owners[a]], colour[owners[b]])
+            << "element " << id << " moves with slots " << owners[a] << " and " << owners[b];
+      }
+    }
+    ++elements;
+  }
+  EXPECT_GT(elements, 0);
+  EXPECT_GE(f.objective.smoothing_colour_count(), 3u);
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    EXPECT_EQ(colour[s] >= 0, f.ctx.is_free(s)) << "slot " << s;
+  }
+}
+
 TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFalls) {
   kernels::SimulationConfig c = graded_config();
   c.solver.smoothing_sweeps = 3;
@@ -341,39 +375,28 @@ TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFall
       moved = f.objective.smooth(r, 3, 1e-6);
       after = f.objective.evaluate(r);
     });
-    // Every element's nodes, ghosts resolved into the particles that move them: no two of one
-    // colour (else two threads would change one element's energy at once).
-    const kernels::ClothMesh& mesh = f.sim.mesh();
-    const std::vector<int>& colour = f.objective.smoothing_colours();
-    int elements = 0;
-    for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
-      std::vector<std::int64_t> nodes;
-      const std::int64_t slot = kernels::element_slot(id);
-      if (mesh.edge_active[id]) nodes = {slot, mesh.next[id]};
-      if (mesh.triple_active[id]) nodes = {mesh.prev[id], slot, mesh.next[id]};
-      if (nodes.empty()) continue;
-      std::vector<std::int64_t> owners;
-      for (std::int64_t k : nodes) owners_of(mesh, k, owners);
-      std::sort(owners.begin(), owners.end());
-      owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
-      for (std::size_t a = 0; a < owners.size(); ++a) {
-        for (std::size_t b = a + 1; b < owners.size(); ++b) {
-          if (colour[owners[a]] < 0 || colour[owners[b]] < 0) continue;
-          EXPECT_NE(colour[owners[a]], colour[owners[b]])
-              << "element " << id << " moves with slots " << owners[a] << " and " << owners[b];
-        }
-      }
-      ++elements;
-    }
-    EXPECT_GT(elements, 0);
-    EXPECT_GE(f.objective.smoothing_colour_count(), 3u);
-    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-      EXPECT_EQ(colour[s] >= 0, f.ctx.is_free(s)) << "slot " << s;
-    }
+    expect_valid_colouring(f);
     EXPECT_GT(moved, 0) << "seed " << seed;
     EXPECT_LT(after.value, before.value) << "seed " << seed;
     EXPECT_LT(after.cost, before.cost) << "seed " << seed << ": the residual falls too";
   }
+}
+
+TEST(NonlinearSmoothing, TheColouringIsKeptWhileTheMeshIsUnchangedAndMadeAgainAfterAnEdit) {
+  kernels::SimulationConfig c = graded_config();
+  c.solver.smoothing_sweeps = 3;
+  ModelFixture f(c);
+  f.run([&](kernels::LoopRunner& r) { f.objective.colour_for_smoothing(r); });
+  expect_valid_colouring(f);  // the uniform mesh
+  const std::vector<int> uniform = f.objective.smoothing_colours();
+  testing::randomise_state(f.sim, 4);  // positions do not change the topology
+  f.run([&](kernels::LoopRunner& r) { f.objective.colour_for_smoothing(r); });
+  EXPECT_EQ(f.objective.smoothing_colours(), uniform);
+  grade_and_randomise(f, 5);  // an AMRC edit: inactive slots, ghosts
+  if (HasFatalFailure()) return;
+  f.run([&](kernels::LoopRunner& r) { f.objective.colour_for_smoothing(r); });
+  expect_valid_colouring(f);
+  EXPECT_NE(f.objective.smoothing_colours(), uniform);
 }
 
 TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
