@@ -203,25 +203,10 @@ class LoopRunner {
       return;
     }
     const ElementList& list = lists_->of(kind);
-    const std::int64_t n = list.size();
-    const std::vector<std::int64_t>& begin = list.tile_begin;
-    auto tile_containing = [&](std::int64_t q) {
-      return static_cast<std::int64_t>(std::upper_bound(begin.begin(), begin.end(), q) -
-                                       begin.begin()) - 1;
-    };
-    auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
-    timed_loop(n, kind_code, site, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
-      const std::int64_t lo = snap(q0), hi = snap(q1);
-      if (lo >= hi) return;
-      timed_call([&] {
-        for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
-          if (begin[t + 1] == begin[t]) continue;
-          Acc acc{};
-          tile_body(list.entries.data() + begin[t], begin[t + 1] - begin[t], acc);
-          if (out != nullptr) out[t] = acc;
-        }
-        return hi - lo;
-      });
+    list_tiles(list, kind_code, site, [&](std::int64_t t, std::int64_t first, std::int64_t end) {
+      Acc acc{};
+      tile_body(list.entries.data() + first, end - first, acc);
+      if (out != nullptr) out[t] = acc;
     });
   }
 
@@ -291,6 +276,11 @@ class LoopRunner {
   /// `kind`: ElementKind as an int, -1 for for_index (the trace's site).
   template <class Ranges>
   void timed_loop(std::int64_t n, int kind, const LoopSite& site, Ranges&& ranges);
+  /// The loop over an Active-List: timed_loop over its positions, each scheduler range snapped
+  /// to whole tiles; visit(t, first, end) for every tile t of the range that has entries (list
+  /// positions [first, end)), in tile order. `kind` as for timed_loop.
+  template <class TileVisit>
+  void list_tiles(const ElementList& list, int kind, const LoopSite& site, TileVisit&& visit);
 
   template <class Acc, class Prepare, class Body>
   /// Runs the live elements of tile t; returns how many.
@@ -343,6 +333,17 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Bod
     return;
   }
   const ElementList& list = lists_->of(kind);
+  list_tiles(list, kind_code, site, [&](std::int64_t t, std::int64_t first, std::int64_t end) {
+    Acc acc{};
+    const auto context = prepare(t, acc);
+    for (std::int64_t q = first; q < end; ++q) body(list.entries[q], acc, context);
+    if (partials != nullptr) partials[t] = acc;
+  });
+}
+
+template <class TileVisit>
+void LoopRunner::list_tiles(const ElementList& list, int kind, const LoopSite& site,
+                            TileVisit&& visit) {
   const std::int64_t n = list.size();
   const std::vector<std::int64_t>& begin = list.tile_begin;
   auto tile_containing = [&](std::int64_t q) {
@@ -352,18 +353,13 @@ void LoopRunner::run_loop(ElementKind kind, Acc* partials, Prepare& prepare, Bod
   // A scheduler's range of list positions is widened/narrowed to whole tiles: every tile
   // belongs to the range holding its first entry, so tile partials never depend on the split.
   auto snap = [&](std::int64_t q) { return q >= n ? n : begin[tile_containing(q)]; };
-  timed_loop(n, kind_code, site, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
+  timed_loop(n, kind, site, [&](std::int64_t q0, std::int64_t q1, auto& timed_call) {
     const std::int64_t lo = snap(q0), hi = snap(q1);
     if (lo >= hi) return;
     timed_call([&] {
       for (std::int64_t t = tile_containing(lo); begin[t] < hi; ++t) {
         if (begin[t + 1] == begin[t]) continue;
-        Acc acc{};
-        const auto context = prepare(t, acc);
-        for (std::int64_t q = begin[t]; q < begin[t + 1]; ++q) {
-          body(list.entries[q], acc, context);
-        }
-        if (partials != nullptr) partials[t] = acc;
+        visit(t, begin[t], begin[t + 1]);
       }
       return hi - lo;
     });

@@ -29,6 +29,59 @@ struct Lanes {
     return xsimd::select(direction_one, V(one), V(zero));
   }
 
+  /// Lane l of the vector from particle slot `from` to slot `to`, split over x, y, z.
+  static void gather_difference(const double* position, std::int64_t from, std::int64_t to, int l,
+                                double* x, double* y, double* z) {
+    const double* a = position + 3 * from;
+    const double* b = position + 3 * to;
+    x[l] = b[0] - a[0];
+    y[l] = b[1] - a[1];
+    z[l] = b[2] - a[2];
+  }
+
+  /// The per-element inputs both loops gather, one lane each: rest length and width (m), the
+  /// previous force (N/m) or moment (N), and the direction (id % 2) as a double.
+  struct ElementInputs {
+    alignas(64) double rest[kWidth], width[kWidth], previous[kWidth], direction[kWidth];
+    void gather(int l, std::int64_t id, const float* rest_of, const float* width_of,
+                const double* previous_of) {
+      rest[l] = rest_of[id];
+      width[l] = width_of[id];
+      previous[l] = previous_of[id];
+      direction[l] = static_cast<double>(id % 2);
+    }
+  };
+
+  /// ReturnMapped of potential_elements.hpp without the slope: force (moment) and potential.
+  struct Mapped {
+    V force, potential;
+  };
+  /// The potentials of the branches off the loading curve.
+  struct OffLoading {
+    V plateau, unloading;
+  };
+  /// The branch choice of fast_return_map, given the band's curves at the strain (curvature):
+  /// a lane whose previous value is not below `upper` is loading; otherwise it is on the
+  /// plateau (previous value not below `lower`: the previous value is kept) or unloading
+  /// (follows `lower`); a lane without positive strain gives zero. off_loading() returns the
+  /// plateau and unloading potentials and runs only when a positive lane leaves the loading
+  /// curve (its breakpoints cost transcendental calls).
+  template <class OffLoadingPotentials>
+  static Mapped return_map(const M& positive, const V& prev, const V& upper, const V& lower,
+                           const V& loading_potential, OffLoadingPotentials&& off_loading) {
+    const M loading = !(prev < upper);
+    V force = upper, potential = loading_potential;
+    if (xsimd::any(positive & !loading)) {
+      const OffLoading off = off_loading();
+      const M plateau = !(prev < lower);
+      force = xsimd::select(loading, upper, xsimd::select(plateau, prev, lower));
+      potential = xsimd::select(loading, loading_potential,
+                                xsimd::select(plateau, off.plateau, off.unloading));
+    }
+    return Mapped{xsimd::select(positive, force, V(0.0)),
+                  xsimd::select(positive, potential, V(0.0))};
+  }
+
   // --- tension (TensileBand, fast_return_map<TensileBand>) -----------------------------
   struct Tensile {
     V fm, emt, p, q;
@@ -49,32 +102,25 @@ struct Lanes {
   }
 
   static double edges(const EdgeLanesArgs& args, const std::int32_t* ids, std::int64_t count) {
-    alignas(64) double dx[kWidth], dy[kWidth], dz[kWidth], rest[kWidth], width[kWidth];
-    alignas(64) double previous[kWidth], direction[kWidth], out_density[kWidth], out_energy[kWidth];
+    alignas(64) double dx[kWidth], dy[kWidth], dz[kWidth], out_density[kWidth], out_energy[kWidth];
+    ElementInputs in;
     double sum = 0.0;
     for (std::int64_t g = 0; g < count; g += kWidth) {
       const int live = count - g < kWidth ? static_cast<int>(count - g) : kWidth;
       for (int l = 0; l < kWidth; ++l) {  // gather: the edge's vector x_b - x_a, per lane
         const std::int64_t id = ids[g + (l < live ? l : live - 1)];
-        const double* xa = args.position + 3 * (id / 2);
-        const double* xb = args.position + 3 * static_cast<std::int64_t>(args.next[id]);
-        dx[l] = xb[0] - xa[0];
-        dy[l] = xb[1] - xa[1];
-        dz[l] = xb[2] - xa[2];
-        rest[l] = args.rest[id];
-        width[l] = args.width[id];
-        previous[l] = args.previous_force[id];
-        direction[l] = static_cast<double>(id % 2);
+        gather_difference(args.position, id / 2, args.next[id], l, dx, dy, dz);
+        in.gather(l, id, args.rest, args.width, args.previous_force);
       }
-      const M one = V::load_aligned(direction) > V(0.5);
+      const M one = V::load_aligned(in.direction) > V(0.5);
       const Tensile t{pick(one, args.band[1].fm, args.band[0].fm),
                       pick(one, args.band[1].emt, args.band[0].emt),
                       pick(one, args.band[1].p, args.band[0].p),
                       pick(one, args.band[1].q, args.band[0].q)};
       const V ex = V::load_aligned(dx), ey = V::load_aligned(dy), ez = V::load_aligned(dz);
       const V length = xsimd::sqrt(ex * ex + ey * ey + ez * ez);
-      const V l0 = V::load_aligned(rest), w = V::load_aligned(width);
-      const V prev = V::load_aligned(previous);
+      const V l0 = V::load_aligned(in.rest), w = V::load_aligned(in.width);
+      const V prev = V::load_aligned(in.previous);
       const V strain = length / l0 - V(1.0);
       // curves(strain)
       const M positive = strain > V(0.0);
@@ -87,29 +133,21 @@ struct Lanes {
       const V upper = xsimd::select(beyond, linear, upper_power);
       const V lower = xsimd::select(beyond, linear, lower_power);
       // loading branch
-      const M loading = !(prev < upper);
       const V loading_potential =
           xsimd::select(strain < t.emt, upper * strain / (t.p + V(1.0)),
                         tensile_integral(t, strain, t.p));
-      V force = upper, potential = loading_potential;
-      const M off = positive & !loading;
-      if (xsimd::any(off)) {  // plateau or unloading: the breakpoints of the previous force
+      const Mapped mapped = return_map(positive, prev, upper, lower, loading_potential, [&] {
+        // plateau or unloading: the breakpoints of the previous force
         const V lower_bp = tensile_inverse(t, prev, t.p);
         const V upper_bp = xsimd::max(lower_bp, tensile_inverse(t, prev, t.q));
         const V lower_potential = tensile_integral(t, lower_bp, t.p);
-        const M plateau = !(prev < lower);
-        const V plateau_potential = lower_potential + prev * (strain - lower_bp);
-        const V unloading_potential = lower_potential + prev * (upper_bp - lower_bp) -
-                                      tensile_integral(t, upper_bp, t.q) +
-                                      tensile_integral(t, strain, t.q);
-        force = xsimd::select(loading, upper, xsimd::select(plateau, prev, lower));
-        potential = xsimd::select(loading, loading_potential,
-                                  xsimd::select(plateau, plateau_potential, unloading_potential));
-      }
-      force = xsimd::select(positive, force, V(0.0));
-      potential = xsimd::select(positive, potential, V(0.0));
-      const V energy = w * l0 * potential;
-      const V density = xsimd::select(length > V(0.0), w * force / length, V(0.0));
+        return OffLoading{lower_potential + prev * (strain - lower_bp),
+                          lower_potential + prev * (upper_bp - lower_bp) -
+                              tensile_integral(t, upper_bp, t.q) +
+                              tensile_integral(t, strain, t.q)};
+      });
+      const V energy = w * l0 * mapped.potential;
+      const V density = xsimd::select(length > V(0.0), w * mapped.force / length, V(0.0));
       density.store_aligned(out_density);
       energy.store_aligned(out_energy);
       for (int l = 0; l < live; ++l) {
@@ -146,31 +184,21 @@ struct Lanes {
 
   static double triples(const TripleLanesArgs& args, const std::int32_t* ids, std::int64_t count) {
     alignas(64) double e1x[kWidth], e1y[kWidth], e1z[kWidth], e2x[kWidth], e2y[kWidth], e2z[kWidth];
-    alignas(64) double rest[kWidth], width[kWidth], previous[kWidth], direction[kWidth];
     alignas(64) double lower_bp[kWidth], upper_bp[kWidth];
+    ElementInputs in;
     alignas(64) double out_a[kWidth], out_bc[kWidth], out_c[kWidth], out_energy[kWidth];
     double sum = 0.0;
     for (std::int64_t g = 0; g < count; g += kWidth) {
       const int live = count - g < kWidth ? static_cast<int>(count - g) : kWidth;
       for (int l = 0; l < kWidth; ++l) {  // gather: e1 = x_c - x_a, e2 = x_b - x_c per lane
         const std::int64_t id = ids[g + (l < live ? l : live - 1)];
-        const double* xc = args.position + 3 * (id / 2);
-        const double* xa = args.position + 3 * static_cast<std::int64_t>(args.prev[id]);
-        const double* xb = args.position + 3 * static_cast<std::int64_t>(args.next[id]);
-        e1x[l] = xc[0] - xa[0];
-        e1y[l] = xc[1] - xa[1];
-        e1z[l] = xc[2] - xa[2];
-        e2x[l] = xb[0] - xc[0];
-        e2y[l] = xb[1] - xc[1];
-        e2z[l] = xb[2] - xc[2];
-        rest[l] = args.rest[id];
-        width[l] = args.width[id];
-        previous[l] = args.previous_moment[id];
+        gather_difference(args.position, args.prev[id], id / 2, l, e1x, e1y, e1z);
+        gather_difference(args.position, id / 2, args.next[id], l, e2x, e2y, e2z);
+        in.gather(l, id, args.rest, args.width, args.previous_moment);
         lower_bp[l] = args.breakpoints[2 * id];
         upper_bp[l] = args.breakpoints[2 * id + 1];
-        direction[l] = static_cast<double>(id % 2);
       }
-      const M one = V::load_aligned(direction) > V(0.5);
+      const M one = V::load_aligned(in.direction) > V(0.5);
       const Bending bb{pick(one, args.band[1].b, args.band[0].b),
                        pick(one, args.band[1].hb, args.band[0].hb),
                        pick(one, args.band[1].kappa0, args.band[0].kappa0),
@@ -196,36 +224,28 @@ struct Lanes {
       const V coef_bc = xsimd::select(bent, V(1.0) / (sine * n12), V(0.0));
       const V coef_c = xsimd::select(bent, cosine / (sine * n2sq), V(0.0));
       // fast_return_map(bending, previous, curvature, cached breakpoints)
-      const V l0 = V::load_aligned(rest), w = V::load_aligned(width);
-      const V prev = V::load_aligned(previous);
+      const V l0 = V::load_aligned(in.rest), w = V::load_aligned(in.width);
+      const V prev = V::load_aligned(in.previous);
       const V kappa = theta / l0;
       const M positive = kappa > V(0.0);
       const V em1 = xsimd::expm1(-kappa / bb.kappa0);
       const V upper = bb.b * kappa - bb.hb * em1;
       const V lower = xsimd::select(kappa > bb.onset, xsimd::max(V(0.0), bb.b * kappa + bb.hb * em1),
                                     V(0.0));
-      const M loading = !(prev < upper);
       const V loading_potential = bending_loading_integral(bb, args.ramp, kappa, em1);
-      V force = upper, potential = loading_potential;
-      const M off = positive & !loading;
-      if (xsimd::any(off)) {  // plateau or unloading, with the step's cached breakpoints
+      const Mapped mapped = return_map(positive, prev, upper, lower, loading_potential, [&] {
+        // plateau or unloading, with the step's cached breakpoints
         const V lo = V::load_aligned(lower_bp), hi = V::load_aligned(upper_bp);
         const V lo_em1 = xsimd::expm1(-(lo / bb.kappa0));
         const V hi_em1 = xsimd::expm1(-(hi / bb.kappa0));
         const V lower_potential = bending_loading_integral(bb, args.ramp, lo, lo_em1);
-        const M plateau = !(prev < lower);
-        const V plateau_potential = lower_potential + prev * (kappa - lo);
-        const V unloading_potential = lower_potential + prev * (hi - lo) -
-                                      bending_unloading_integral(bb, args.ramp, hi, hi_em1) +
-                                      bending_unloading_integral(bb, args.ramp, kappa, em1);
-        force = xsimd::select(loading, upper, xsimd::select(plateau, prev, lower));
-        potential = xsimd::select(loading, loading_potential,
-                                  xsimd::select(plateau, plateau_potential, unloading_potential));
-      }
-      force = xsimd::select(positive, force, V(0.0));
-      potential = xsimd::select(positive, potential, V(0.0));
-      const V energy = w * l0 * potential;
-      const V wm = w * force;
+        return OffLoading{lower_potential + prev * (kappa - lo),
+                          lower_potential + prev * (hi - lo) -
+                              bending_unloading_integral(bb, args.ramp, hi, hi_em1) +
+                              bending_unloading_integral(bb, args.ramp, kappa, em1)};
+      });
+      const V energy = w * l0 * mapped.potential;
+      const V wm = w * mapped.force;
       (wm * coef_a).store_aligned(out_a);
       (wm * coef_bc).store_aligned(out_bc);
       (wm * coef_c).store_aligned(out_c);
