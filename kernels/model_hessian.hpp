@@ -96,6 +96,16 @@ class ModelHessian {
     std::fill(bending_.begin(), bending_.end(), 0.0);
   }
 
+  /// Row of free particle s of matrix(), summed on its own: its inertia and contact, then for
+  /// s and every ghost hanging on it (recursively, at half the weight) the blocks of every
+  /// element touching that node, each column expanded to its unknowns. `cols` (count, sorted)
+  /// must hold every column of the row; `values` receives 9 entries a column, row-major.
+  /// The sums run in an order of their own (not matrix()'s), the same at every thread count:
+  /// the V-cycle's level 0 by rows in parallel.
+  void sum_row(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
+               std::int64_t s, const std::int64_t* cols, std::int64_t count,
+               double* values) const;
+
   /// One byte per element id: 1 where the assembled model has bending stiffness (the triples
   /// that add blocks besides their edges'). Sequential.
   void bending_pattern(std::vector<std::uint8_t>& out) const {

@@ -3,11 +3,13 @@
 // expanded to the unknowns it follows (a free particle: itself; a ghost: half of each parent,
 // recursively; a pinned particle: nothing, its entries of v are zero).
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <utility>
 #include <vector>
 
 #include "kernels/ghost_nodes.hpp"
 #include "kernels/model_hessian.hpp"
+#include "kernels/potential_elements.hpp"
 
 namespace clothbench::kernels {
 
@@ -31,6 +33,37 @@ void expand(const ClothMesh& mesh, const std::vector<std::int64_t>& unknown_of_s
     return;
   }
   if (unknown_of_slot[node] >= 0) out.emplace_back(unknown_of_slot[node], weight);
+}
+
+/// K_e = alpha u u^T + beta (I - u u^T) of edge id at the current positions; false for an
+/// edge of zero length.
+bool edge_stiffness(const ClothMesh& mesh, const ClothState& st, std::int64_t id, double alpha,
+                    double beta, Eigen::Matrix3d& k) {
+  const Eigen::Vector3d e = vec3(st.position, mesh.next[id]) - vec3(st.position, element_slot(id));
+  const double l = e.norm();
+  if (!(l > 0.0)) return false;
+  const Eigen::Vector3d u = e / l;
+  k = beta * Eigen::Matrix3d::Identity() + (alpha - beta) * u * u.transpose();
+  return true;
+}
+
+/// The turning vector's Jacobians of triple id by its nodes (previous, centre, next) and the
+/// nodes; false when an arm has zero length.
+bool triple_jacobians(const ClothMesh& mesh, const ClothState& st, std::int64_t id,
+                      Eigen::Matrix3d j[3], std::int64_t node[3]) {
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  node[0] = mesh.prev[id];
+  node[1] = element_slot(id);
+  node[2] = mesh.next[id];
+  const Eigen::Vector3d e1 = vec3(st.position, node[1]) - vec3(st.position, node[0]);
+  const Eigen::Vector3d e2 = vec3(st.position, node[2]) - vec3(st.position, node[1]);
+  const double n1 = e1.norm(), n2 = e2.norm();
+  if (!(n1 > 0.0 && n2 > 0.0)) return false;
+  const Eigen::Vector3d u1 = e1 / n1, u2 = e2 / n2;
+  j[0] = (identity - u1 * u1.transpose()) / n1;
+  j[2] = (identity - u2 * u2.transpose()) / n2;
+  j[1] = -(j[0] + j[2]);
+  return true;
 }
 
 }  // namespace
@@ -69,7 +102,6 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
                                           const BlockVisitor& visit, bool structure) const {
   const ClothMesh& mesh = ctx.mesh;
   const ClothState& st = ctx.state;
-  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   std::vector<std::pair<std::int64_t, double>> rows, cols;
   double scaled[9];
   // Block B between nodes r and s, expanded to the unknowns on both sides.
@@ -87,7 +119,6 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
       }
     }
   };
-  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
   if (structure) {
     const Eigen::Matrix3d zero = Eigen::Matrix3d::Zero();
     for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
@@ -113,38 +144,64 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
     if (unknown_of_slot[s] >= 0) add(s, s, load_block(inertia_, s));
   }
   const std::int64_t ids = 2 * mesh.slot_count();
+  Eigen::Matrix3d k, j[3];
+  std::int64_t node[3];
   for (std::int64_t id = 0; id < ids; ++id) {
-    if (mesh.edge_active[id]) {
+    if (mesh.edge_active[id] &&
+        edge_stiffness(mesh, st, id, edge_[2 * id], edge_[2 * id + 1], k)) {
       const std::int64_t a = element_slot(id), b = mesh.next[id];
-      const Eigen::Vector3d e = x(b) - x(a);
-      const double l = e.norm();
-      if (l > 0.0) {
-        const Eigen::Vector3d u = e / l;
-        const double alpha = edge_[2 * id], beta = edge_[2 * id + 1];
-        const Eigen::Matrix3d k = beta * identity + (alpha - beta) * u * u.transpose();
-        add(a, a, k);
-        add(b, b, k);
-        add(a, b, -k);
-        add(b, a, -k);
-      }
+      add(a, a, k);
+      add(b, b, k);
+      add(a, b, -k);
+      add(b, a, -k);
     }
-    if (mesh.triple_active[id] && bending_[id] > 0.0) {
-      const std::int64_t c = element_slot(id), pa = mesh.prev[id], nb = mesh.next[id];
-      const Eigen::Vector3d e1 = x(c) - x(pa), e2 = x(nb) - x(c);
-      const double n1 = e1.norm(), n2 = e2.norm();
-      if (n1 > 0.0 && n2 > 0.0) {
-        const Eigen::Vector3d u1 = e1 / n1, u2 = e2 / n2;
-        const Eigen::Matrix3d ja = (identity - u1 * u1.transpose()) / n1;
-        const Eigen::Matrix3d jb = (identity - u2 * u2.transpose()) / n2;
-        const Eigen::Matrix3d jc = -(ja + jb);
-        const std::int64_t node[3] = {pa, c, nb};
-        const Eigen::Matrix3d* j[3] = {&ja, &jc, &jb};
-        for (int r = 0; r < 3; ++r) {
-          for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_[id] * (*j[r]) * (*j[q]));
-        }
+    if (mesh.triple_active[id] && bending_[id] > 0.0 && triple_jacobians(mesh, st, id, j, node)) {
+      for (int r = 0; r < 3; ++r) {
+        for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_[id] * j[r] * j[q]);
       }
     }
   }
+}
+
+void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
+                           std::int64_t s, const std::int64_t* cols, std::int64_t count,
+                           double* values) const {
+  const ClothMesh& mesh = ctx.mesh;
+  const ClothState& st = ctx.state;
+  thread_local std::vector<std::pair<std::int64_t, double>> expanded;
+  std::fill(values, values + 9 * count, 0.0);
+  // Block B from row node r (weight wr in this row) to node q, q expanded to its unknowns.
+  auto add = [&](double wr, std::int64_t q, const Eigen::Matrix3d& block) {
+    expanded.clear();
+    expand(mesh, unknown_of_slot, q, 1.0, expanded);
+    for (const auto& [j, wj] : expanded) {
+      double* out = values + 9 * (std::lower_bound(cols, cols + count, j) - cols);
+      const double w = wr * wj;
+      for (int a = 0; a < 3; ++a) {
+        for (int c = 0; c < 3; ++c) out[3 * a + c] += w * block(a, c);
+      }
+    }
+  };
+  auto node_rows = [&](auto&& self, std::int64_t r, double wr) -> void {
+    for_each_element_at(
+        mesh, r,
+        [&](std::int64_t id) {
+          Eigen::Matrix3d k;
+          if (!edge_stiffness(mesh, st, id, edge_[2 * id], edge_[2 * id + 1], k)) return;
+          add(wr, r, k);
+          add(wr, r == element_slot(id) ? mesh.next[id] : element_slot(id), -k);
+        },
+        [&](std::int64_t id) {
+          Eigen::Matrix3d j[3];
+          std::int64_t node[3];
+          if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, j, node)) return;
+          const int i = r == node[0] ? 0 : (r == node[1] ? 1 : 2);
+          for (int q = 0; q < 3; ++q) add(wr, node[q], bending_[id] * j[i] * j[q]);
+        });
+    for_each_ghost_child(mesh, r, [&](std::int64_t child) { self(self, child, 0.5 * wr); });
+  };
+  add(1.0, s, load_block(inertia_, s));
+  node_rows(node_rows, s, 1.0);
 }
 
 }  // namespace clothbench::kernels

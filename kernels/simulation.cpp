@@ -387,7 +387,8 @@ std::vector<double> Simulation::contact_forces() const {
 
 Simulation::VcycleWork Simulation::vcycle_work() const {
   VcycleWork work;
-  const VcyclePreconditioner* v = newton_objective_ == nullptr ? nullptr : newton_objective_->vcycle();
+  const VcyclePreconditioner* v =
+      newton_objective_ == nullptr ? nullptr : newton_objective_->vcycle();
   if (v != nullptr) {
     work.factorisations = v->factorisations();
     work.structures = v->structures();

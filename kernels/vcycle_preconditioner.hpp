@@ -26,10 +26,11 @@
 // preconditioner on crumpled states in contact, where a Jacobi-type line smoother was not
 // (multigrid_preconditioner.hpp).
 //
-// Every loop of the cycle (line factorisations, line updates, residuals, restriction,
-// prolongation) goes through the LoopRunner and writes only its own entries; the assembly of
-// the hierarchy and the coarsest solve run on one thread. The result has the same bits on
-// every scheduler and thread count.
+// Every loop of the cycle and of its values (level 0 by rows, Galerkin rows, line
+// factorisations, line updates, residuals, restriction, prolongation) goes through the
+// LoopRunner and writes only its own entries; the hierarchy's structure (made again only when
+// the topology changes) and the coarsest solve run on one thread. The result has the same bits
+// on every scheduler and thread count.
 #pragma once
 
 #include <Eigen/SparseCholesky>
@@ -58,9 +59,10 @@ class VcyclePreconditioner {
   /// prolongations, the Galerkin patterns, the lines and their colours, the coarsest level's
   /// ordering) depends only on the mesh's topology and on which triples have bending stiffness
   /// in the model: it is made again only when one of them differs from the last factor() (an
-  /// AMRC event, a released pin, a triple leaving its plateau), else only the values are. Level 0's values, a new structure and the
-  /// coarsest factorisation are made on one thread; the Galerkin products (by coarse rows) and
-  /// the line factorisations run through the LoopRunner. Every thread of the region calls it.
+  /// AMRC event, a released pin, a triple leaving its plateau), else only the values are. A
+  /// new structure and the coarsest factorisation are made on one thread; level 0's values (by
+  /// rows, ModelHessian::sum_row), the Galerkin products (by coarse rows) and the line
+  /// factorisations run through the LoopRunner. Every thread of the region calls it.
   void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
   /// calls it; ends after a barrier.
@@ -91,8 +93,8 @@ class VcyclePreconditioner {
   /// factor() calls that made the structure anew (the first, and one after every change of
   /// the mesh's topology).
   [[nodiscard]] std::int64_t structures() const { return structures_; }
-  /// Wall time factor() spent on one thread (level 0's values, structures, the coarsest
-  /// factorisation): the V-cycle's sequential share of a run.
+  /// Wall time factor() spent on one thread (structures, the coarsest factorisation): the
+  /// V-cycle's sequential share of a run.
   [[nodiscard]] double sequential_seconds() const { return sequential_seconds_; }
   /// Line or coarsest factorisations that found a non-positive pivot (the model was not SPD;
   /// the failing line or level is then left out of the cycle).

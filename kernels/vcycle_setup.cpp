@@ -395,17 +395,6 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
     new_structure_ = !topology_.matches(ctx.mesh) || structure_coarsest_ != coarsest_nodes_ ||
                      bending_now_ != bending_;
     if (new_structure_) make_structure(ctx, hessian);
-    // Level 0's values: the model's blocks summed into the pattern in assembly order
-    // (matrix()'s order).
-    BlockRows& a = levels_.front().a;
-    std::fill(a.value.begin(), a.value.end(), 0.0);
-    hessian.for_each_unknown_block(
-        ctx, unknown_, [&](std::int64_t row, std::int64_t col, const double* block) {
-          const auto first = a.col.begin() + a.start[row], last = a.col.begin() + a.start[row + 1];
-          const std::int64_t at = std::lower_bound(first, last, col) - a.col.begin();
-          double* out = a.value.data() + 9 * at;
-          for (int q = 0; q < 9; ++q) out[q] += block[q];
-        });
     const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
     if (accumulators_.size() < static_cast<std::size_t>(threads)) {
       accumulators_.resize(static_cast<std::size_t>(threads));
@@ -414,6 +403,14 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
     sequential_seconds_ += omp_get_wtime() - started;
   }  // the single's barrier publishes the levels and new_structure_
   const bool pattern = new_structure_;
+  // Level 0's values, row by row (ModelHessian::sum_row).
+  {
+    BlockRows& a = levels_.front().a;
+    run.for_index(static_cast<std::int64_t>(a.start.size()) - 1, [&](std::int64_t row) {
+      hessian.sum_row(ctx, unknown_, slot_of_node_[row], a.col.data() + a.start[row],
+                      a.start[row + 1] - a.start[row], a.value.data() + 9 * a.start[row]);
+    });
+  }
   // The Galerkin products level by level, each coarse row on its own.
   for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
     const std::int64_t rows = static_cast<std::int64_t>(levels_[k + 1].i.size());

@@ -358,6 +358,15 @@ TEST(Vcycle, CoarseOperatorsAreGalerkinProductsOfTheModel) {
   Fixture f(graded_cloth(true, Preconditioner::vcycle));
   const kernels::VcyclePreconditioner& v = graded_vcycle(f, 8);
   ASSERT_GE(v.levels(), 3);
+  // Level 0, summed by rows, is the model's matrix (summed element by element).
+  std::int64_t unknowns = 0;
+  const std::vector<std::int64_t> unknown = kernels::free_unknowns(f.ctx, &unknowns);
+  const Eigen::MatrixXd model =
+      Eigen::MatrixXd(f.objective.model_hessian()->matrix(f.ctx, unknown, unknowns));
+  const Eigen::MatrixXd level0 = Eigen::MatrixXd(v.level_operator(0));
+  ASSERT_EQ(level0.rows(), model.rows());
+  EXPECT_LE((level0 - model).cwiseAbs().maxCoeff(), 1e-12 * model.cwiseAbs().maxCoeff());
+  EXPECT_GT(f.sim.mesh().ghost_count(), 0);
   for (int k = 0; k + 1 < v.levels(); ++k) {
     const Eigen::MatrixXd p = Eigen::MatrixXd(v.prolongation(k));
     const Eigen::MatrixXd expected = p.transpose() * Eigen::MatrixXd(v.level_operator(k)) * p;
@@ -421,7 +430,9 @@ TEST(Vcycle, TheHierarchyIsMadeOncePerTopologyAndMatchesOneMadeAnew) {
   EXPECT_EQ(v.structures(), 1);
   const Eigen::MatrixXd first = Eigen::MatrixXd(v.level_operator(1));
   // A shorter time step: every inertia block changes, the pattern does not.
-  auto shorter_step = [](Fixture& f) { f.objective.set_step_length(0.5 * f.sim.config().time.step); };
+  auto shorter_step = [](Fixture& f) {
+    f.objective.set_step_length(0.5 * f.sim.config().time.step);
+  };
   shorter_step(kept);
   assemble_afresh(kept);
   EXPECT_EQ(v.factorisations(), 2);
