@@ -79,29 +79,39 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
     if (reach) {  // the secant slope to where the last direction would take the edge
       const EdgeTerm far = edge_term(ctx, id, reached);
       const double delta = far.strain - e.strain;
-      if (delta != 0.0) slope = std::max(slope, (far.force - e.force) / delta);
+      if (std::abs(delta) > kReachChange) slope = std::max(slope, (far.force - e.force) / delta);
     }
     double alpha = w * slope / mesh.edge_rest[id];
     alpha = std::max(alpha, kStiffnessMemory * edge_[2 * id]);
     edge_[2 * id] = alpha;
     edge_[2 * id + 1] = e.length > 0.0 ? w * std::max(e.force, 0.0) / e.length : 0.0;
   });
+  const double zero_slopes[2] = {
+      ctx.material.bending[0].curves(std::numeric_limits<double>::min()).upper_slope,
+      ctx.material.bending[1].curves(std::numeric_limits<double>::min()).upper_slope};
   run.for_each(ElementKind::triples, [&](std::int64_t id) {
     // The band's slope on the branch the return mapping takes at the current curvature: zero
     // on the plateau (a straight triple with no previous moment lies on it). A straight triple
     // with a previous moment is on the loading branch as soon as it bends: its slope there is
     // the limit at zero curvature, B + HB / kappa0 (the return mapping itself gives 0 at 0).
+    //
+    // It is also at least the secant from zero curvature M / kappa, capped at that slope: the
+    // energy is even in the turning angle, a concave loading curve or a plateau's constant
+    // moment makes it grow like |kappa| beyond kappa0, and a direction that straightens the
+    // triple meets the stiff start of the band (B + HB / kappa0) the tangent cannot see.
     const TripleTerm t = triple_term(ctx, id, x);
+    const double zero_slope = zero_slopes[element_direction(id)];
     double slope = t.slope;
-    if (!(t.curvature > 0.0) && st.triple_moment[id] > 0.0) {
-      slope = ctx.material.bending[element_direction(id)]
-                  .curves(std::numeric_limits<double>::min())
-                  .upper_slope;
+    if (!(t.curvature > 0.0) && st.triple_moment[id] > 0.0) slope = zero_slope;
+    if (t.curvature > 0.0 && t.moment > 0.0) {
+      slope = std::max(slope, std::min(t.moment / t.curvature, zero_slope));
     }
     if (reach) {
       const TripleTerm far = triple_term(ctx, id, reached);
       const double delta = far.curvature - t.curvature;
-      if (delta != 0.0) slope = std::max(slope, (far.moment - t.moment) / delta);
+      if (std::abs(delta) * mesh.triple_rest[id] > kReachChange) {
+        slope = std::max(slope, (far.moment - t.moment) / delta);
+      }
     }
     double c = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
     c = std::max(c, kStiffnessMemory * bending_[id]);

@@ -113,6 +113,10 @@ class ModelHessian {
     for (std::size_t id = 0; id < bending_.size(); ++id) out[id] = bending_[id] > 0.0 ? 1 : 0;
   }
 
+  /// Bending coefficient c of triple id as assembled (w dM/dkappa / rest, or what the secants
+  /// and the memory made of it; tests).
+  [[nodiscard]] double bending_stiffness(std::int64_t id) const { return bending_[id]; }
+
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
 
@@ -122,11 +126,15 @@ class ModelHessian {
   /// An element's axial or bending stiffness keeps at least this share of what the previous
   /// assembly gave it (0.2-0.5 measured alike; 0.9 makes slack regions too stiff to move).
   static constexpr double kStiffnessMemory = 0.3;
+  /// A reach changes a strain or a turning angle (rad) by more than this, or it is rounding
+  /// (a translation of the cloth) and its secant, a quotient of two roundings, is not taken.
+  static constexpr double kReachChange = 1e-12;
 
  private:
   /// Every thread; per particle: store the inertia block, call diagonal(s, full block).
   template <class Diagonal>
-  void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal);
+  void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal,
+                          bool reach);
   /// Edge and triple coefficients at the current positions (two loops).
   void assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step);
   /// The full diagonal block of particle s without inertia and contact: edges and triples.
@@ -138,21 +146,40 @@ class ModelHessian {
   TilePartials<ScalarSum> dot_partials_;
 };
 
+/// Contact stiffness k n n^T of particle s for every obstacle it touches at x or would touch at
+/// x + p, p the last Newton direction (n where it touches first): the model sees a contact
+/// the full step would make.
+inline Eigen::Matrix3d contact_reach(const StepContext& ctx, std::int64_t s,
+                                     const Eigen::Vector3d& x, const Eigen::Vector3d& p) {
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+  const double d = ctx.config.contact.distance;
+  for (const Obstacle& obstacle : ctx.obstacles) {
+    Eigen::Vector3d n;
+    if (obstacle.signed_distance(x, n) < d || obstacle.signed_distance(x + p, n) < d) {
+      stiffness += ctx.contact_stiffness(s) * n * n.transpose();
+    }
+  }
+  return stiffness;
+}
+
 template <class Diagonal>
 void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
                             bool new_step) {
   assemble_elements(run, ctx, new_step);
-  assemble_particles(run, ctx, diagonal);
+  assemble_particles(run, ctx, diagonal, !new_step);
 }
 
 template <class Diagonal>
-void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal) {
+void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal,
+                                      bool reach) {
   const ClothState& st = ctx.state;
   const double dt = ctx.dt();
   run.for_each_prepared(
       ElementKind::particles,
       [&](std::int64_t tile) {
-        return ctx.broad_phase() ? ctx.tile_contacts(tile, st.position).mask : kEveryObstacle;
+        // Reaching, x + p may touch what the broad phase of x ruled out.
+        return ctx.broad_phase() && !reach ? ctx.tile_contacts(tile, st.position).mask
+                                           : kEveryObstacle;
       },
       [&](std::int64_t s, ObstacleMask mask) {
         if (!ctx.is_free(s)) {
@@ -160,8 +187,10 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
           diagonal(s, Eigen::Matrix3d::Zero());
           return;
         }
-        const Eigen::Matrix3d own = Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
-                                    contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness;
+        const Eigen::Matrix3d own =
+            Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
+            (reach ? contact_reach(ctx, s, vec3(st.position, s), vec3(st.direction, s))
+                   : contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness);
         store_symmetric(inertia_, s, own);
         diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
       });

@@ -26,6 +26,9 @@ struct NewtonSettings {
   /// 0: none), relaxing the particles whose normalised residual is at least the threshold.
   int smoothing_sweeps = 0;
   double smoothing_threshold = 1e-3;
+  /// Times a direction p is solved again after the model was assembled anew reaching along p
+  /// itself (PotentialObjective::refresh_preconditioner), before the line search.
+  int model_refinements = 0;
 };
 
 /// Minimises one (sub-)step of length dt (begin_step, then Newton). The report's `iterations`

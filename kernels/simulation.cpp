@@ -79,6 +79,7 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   newton.max_linear_iterations = config_.solver.max_linear_iterations;
   newton.record_values = config_.solver.record_values;
   newton.smoothing_sweeps = effective_smoothing_sweeps(config_.solver);
+  newton.model_refinements = effective_model_refinements(config_.solver);
   newton.smoothing_threshold = config_.solver.smoothing_threshold * config_.solver.tolerance;
   StepReport report;
   const double start = monotonic_seconds();

@@ -141,7 +141,7 @@ class Simulation {
   [[nodiscard]] const ContactWork& contact_work() const { return objective_->contact_work(); }
   /// The V-cycle preconditioner's set-up so far (all zero without one).
   struct VcycleWork {
-    std::int64_t factorisations = 0;  ///< one per Newton iteration
+    std::int64_t factorisations = 0;  ///< one per model assembly (Newton iteration, refinement)
     std::int64_t structures = 0;      ///< hierarchies made anew (after topology changes)
     double sequential_seconds = 0.0;  ///< set-up time spent on one thread
   };

@@ -134,6 +134,12 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "expected method = \"newton\" with smoothing_sweeps > 0, or "
                         "smoothing_sweeps = 0"});
   }
+  if (solver.model_refinements > 0 && solver.method != StepMethod::newton) {
+    problems.push_back({"solver.model_refinements", "solver.method",
+                        "the model is refined along each of Newton's directions",
+                        "expected method = \"newton\" with model_refinements > 0, or "
+                        "model_refinements = 0"});
+  }
   if (violation && solver.gradient == GradientMode::numeric && config.amrc.enabled) {
     problems.push_back({"solver.gradient", "amrc.enabled",
                         "the numeric gradient of the violation formulation is not available with "

@@ -124,6 +124,9 @@ struct ContactConfig {
 /// stress drape they cut Newton iterations 5x at 65^2 and 7x at 129^2 (MODEL-NOTES.md, Newton,
 /// "Nonlinear smoothing").
 inline constexpr int kDefaultSmoothingSweeps = 3;
+/// Newton: how often a direction is solved again after the model reached along it (the
+/// default under Newton; see SolverConfig::model_refinements).
+inline constexpr int kDefaultModelRefinements = 1;
 
 /// Minimisation of one step (MODEL.md section 5).
 struct SolverConfig {
@@ -149,6 +152,10 @@ struct SolverConfig {
   /// from which a particle is relaxed.
   int smoothing_sweeps = -1;
   double smoothing_threshold = 1.0;
+  /// Newton: after each direction p is solved, the model is assembled again reaching along p
+  /// itself and the direction solved again, this many times (0: none; -1:
+  /// kDefaultModelRefinements under Newton, none under nonlinear CG).
+  int model_refinements = -1;
   /// V-cycle: a level with at most this many nodes is solved directly (sparse LDL^T).
   std::int64_t coarsest_nodes = 600;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
@@ -178,6 +185,12 @@ struct SolverConfig {
 inline int effective_smoothing_sweeps(const SolverConfig& solver) {
   if (solver.smoothing_sweeps >= 0) return solver.smoothing_sweeps;
   return solver.method == StepMethod::newton ? kDefaultSmoothingSweeps : 0;
+}
+
+/// The model refinements per Newton direction a solver configuration runs (-1 resolved).
+inline int effective_model_refinements(const SolverConfig& solver) {
+  if (solver.model_refinements >= 0) return solver.model_refinements;
+  return solver.method == StepMethod::newton ? kDefaultModelRefinements : 0;
 }
 
 /// Adaptive mesh refinement and coarsening (MODEL.md section 6); parsed now, used by AMRC.

@@ -198,8 +198,9 @@ void read_contact(const TableReader& reader, kernels::ContactConfig& contact) {
 void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   reader.allow_only({"formulation", "gradient", "kernel", "method", "preconditioner", "line_solves",
                      "tolerance", "max_iterations", "max_newton_iterations",
-                     "max_linear_iterations", "smoothing_sweeps", "smoothing_threshold", "coarsest_nodes",
-                     "numeric_step", "weights", "stretch_reference_fm", "time_budget_s"});
+                     "max_linear_iterations", "smoothing_sweeps", "smoothing_threshold",
+                     "model_refinements", "coarsest_nodes", "numeric_step", "weights",
+                     "stretch_reference_fm", "time_budget_s"});
   if (auto v = reader.choice("formulation", {"potential", "violation"})) {
     solver.formulation =
         *v == "violation" ? kernels::Formulation::violation : kernels::Formulation::potential;
@@ -247,6 +248,9 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   }
   if (auto v = reader.number("smoothing_threshold", NumberRange::positive(), "multiples of tolerance")) {
     solver.smoothing_threshold = *v;
+  }
+  if (auto v = reader.integer("model_refinements", 0, 10)) {
+    solver.model_refinements = static_cast<int>(*v);
   }
   if (auto v = reader.integer("coarsest_nodes", 1, std::numeric_limits<std::int32_t>::max())) {
     solver.coarsest_nodes = *v;

@@ -346,12 +346,14 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   }
   const kernels::SolverConfig smoothing =
       parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"newton\"\n"
-                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\n"
+                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\nmodel_refinements = 2\n"
                   "preconditioner = \"v-cycle\"\ncoarsest_nodes = 40\n",
                   "solver.toml", kPresets)
           .simulation.solver;
   EXPECT_EQ(smoothing.smoothing_sweeps, 4);
   EXPECT_EQ(smoothing.smoothing_threshold, 0.5);
+  EXPECT_EQ(smoothing.model_refinements, 2);
+  EXPECT_EQ(kernels::effective_model_refinements(kernels::SolverConfig{}), 0) << "CG: none";
   EXPECT_EQ(smoothing.preconditioner, kernels::Preconditioner::vcycle);
   EXPECT_EQ(smoothing.coarsest_nodes, 40);
   EXPECT_EQ(kernels::SolverConfig{}.coarsest_nodes, kernels::VcyclePreconditioner::kCoarsestNodes);
@@ -389,7 +391,7 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
     std::string message;
     kernels::SimulationConfig config;  ///< the same settings handed to the kernel
   };
-  std::vector<Case> cases(4);
+  std::vector<Case> cases(5);
   cases[0].text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"multigrid\"\n";
   cases[0].message =
       "solver.toml:4:18: [solver] preconditioner: the multigrid preconditioner preconditions "
@@ -417,6 +419,11 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
       "solver.toml:4:20: [solver] smoothing_sweeps: the nonlinear smoothing runs after each of "
       "Newton's line searches";
   cases[3].config.solver.smoothing_sweeps = 2;
+  cases[4].text = "[cloth]\nparticles = [9, 9]\n[solver]\nmodel_refinements = 1\n";
+  cases[4].message =
+      "solver.toml:4:21: [solver] model_refinements: the model is refined along each of "
+      "Newton's directions";
+  cases[4].config.solver.model_refinements = 1;
   for (const Case& c : cases) {
     try {
       (void)parse_scene(c.text, "solver.toml", kPresets);

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <limits>
 #include <random>
 #include <tuple>
 #include <utility>
@@ -226,6 +227,47 @@ TEST(ModelHessian, TakesTheSecantToWhereTheLastDirectionReachesAndRemembersItsSt
   }
 }
 
+TEST(ModelHessian, BendingStiffnessIsAtLeastTheSecantFromZeroCurvature) {
+  // The sheet rolled onto a cylinder of radius 2 cm about the j axis (curvature 50 1/m, five
+  // times kappa0) with every previous moment above the band: the triples along i are on their
+  // loading branch, whose concave curve puts the tangent below the secant M / kappa. The
+  // straight triples along j (previous moment, no curvature) take the slope at zero.
+  ModelFixture f(stretched_flat_sheet(7));
+  kernels::ClothState& st = f.sim.state();
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  const double radius = 0.02;
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    const double arc = st.position[3 * s];
+    st.position[3 * s] = radius * std::sin(arc / radius);
+    st.position[3 * s + 2] = radius * (1.0 - std::cos(arc / radius));
+  }
+  for (double& m : st.triple_moment) m = 1e3 * f.sim.material().bending[0].hb;
+  std::fill(st.direction.begin(), st.direction.end(), 0.0);  // no reach
+  f.assemble();
+  auto x = [&](std::int64_t k) { return kernels::vec3(st.position, k); };
+  int bent = 0, straight = 0;
+  for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
+    if (!mesh.triple_active[id]) continue;
+    const kernels::TripleTerm t = kernels::triple_term(f.ctx, id, x);
+    const auto& band = f.sim.material().bending[kernels::element_direction(id)];
+    const double at_zero = band.curves(std::numeric_limits<double>::min()).upper_slope;
+    const double scale = mesh.triple_width[id] / mesh.triple_rest[id];
+    const double model = f.objective.model_hessian()->bending_stiffness(id);
+    if (t.curvature > 3.0 * band.kappa0) {
+      ASSERT_NEAR(t.moment, band.loading(t.curvature), 1e-12 * t.moment) << "loading branch";
+      ASSERT_LT(t.slope, 0.99 * t.moment / t.curvature) << "triple " << id;
+      EXPECT_NEAR(model, scale * std::min(t.moment / t.curvature, at_zero), 1e-12 * model)
+          << "triple " << id;
+      ++bent;
+    } else if (t.curvature < 1e-6) {
+      EXPECT_NEAR(model, scale * at_zero, 1e-6 * model) << "triple " << id;
+      ++straight;
+    }
+  }
+  EXPECT_GE(bent, 5 * 7);
+  EXPECT_GE(straight, 7 * 5);
+}
+
 /// A 9 x 9 cloth for AMRC with L = 2, with pins and obstacles (testing::small_cloth).
 kernels::SimulationConfig graded_config() {
   kernels::SimulationConfig c = newton_config(testing::small_cloth(true, true));
@@ -399,20 +441,69 @@ TEST(NonlinearSmoothing, TheColouringIsKeptWhileTheMeshIsUnchangedAndMadeAgainAf
   EXPECT_NE(f.objective.smoothing_colours(), uniform);
 }
 
+TEST(ModelHessian, SeesTheContactsTheLastDirectionWouldMake) {
+  // The small drape 3 mm above its obstacles, then a last direction that lowers the whole
+  // cloth by 5 mm: a translation, so no element's strain or curvature changes, and only the
+  // particles that x + p takes within the contact distance of an obstacle gain k n n^T there.
+  ModelFixture f(newton_config(small_drape()));
+  kernels::ClothState& st = f.sim.state();
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  const double d = f.sim.config().contact.distance;
+  const Eigen::Vector3d lower(0.0, 0.0, -0.005), up = Eigen::Vector3d::UnitZ();
+  std::fill(st.direction.begin(), st.direction.end(), 0.0);
+  f.assemble();
+  auto vertical = [&](std::int64_t s) {  // e_z^T H_ss e_z
+    std::vector<double> v(st.position.size(), 0.0);
+    kernels::vec3(v, s) = up;
+    return kernels::vec3(f.product(v), s).z();
+  };
+  std::vector<std::int64_t> free;
+  std::vector<double> before;
+  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+    if (!f.ctx.is_free(s)) continue;
+    for (const kernels::Obstacle& o : f.sim.obstacles()) {
+      Eigen::Vector3d n;
+      ASSERT_GE(o.signed_distance(kernels::vec3(st.position, s), n), d) << "no contact yet";
+    }
+    free.push_back(s);
+    before.push_back(vertical(s));
+  }
+  for (std::int64_t s : free) kernels::vec3(st.direction, s) = lower;
+  f.assemble();
+  int touching = 0;
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    const std::int64_t s = free[k];
+    double gained = 0.0;
+    for (const kernels::Obstacle& o : f.sim.obstacles()) {
+      Eigen::Vector3d n;
+      if (o.signed_distance(kernels::vec3(st.position, s) + lower, n) < d) {
+        gained += f.ctx.contact_stiffness(s) * n.z() * n.z();
+        ++touching;
+      }
+    }
+    EXPECT_NEAR(vertical(s) - before[k], gained, 1e-9 * (before[k] + gained)) << "particle " << s;
+  }
+  EXPECT_GE(touching, 5);
+  EXPECT_LT(touching, static_cast<int>(free.size()));
+}
+
 TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
   kernels::SimulationConfig cg = small_drape();
   kernels::SimulationConfig newton = newton_config(cg);
   // Nonlinear CG has no multigrid: Newton-multigrid is compared with CG and line solves.
-  // The last pair: Newton with nonlinear smoothing after each line search.
-  const std::tuple<Preconditioner, Preconditioner, int> pairs[] = {
-      {Preconditioner::block_jacobi, Preconditioner::block_jacobi, 0},
-      {Preconditioner::line_solves, Preconditioner::line_solves, 0},
-      {Preconditioner::line_solves, Preconditioner::multigrid, 0},
-      {Preconditioner::line_solves, Preconditioner::line_solves, 3}};
-  for (const auto& [pc, p, sweeps] : pairs) {
+  // The last pairs: Newton with nonlinear smoothing after each line search, and without the
+  // model's refinement along each direction (-1: the default, one).
+  const std::tuple<Preconditioner, Preconditioner, int, int> pairs[] = {
+      {Preconditioner::block_jacobi, Preconditioner::block_jacobi, 0, -1},
+      {Preconditioner::line_solves, Preconditioner::line_solves, 0, -1},
+      {Preconditioner::line_solves, Preconditioner::multigrid, 0, -1},
+      {Preconditioner::line_solves, Preconditioner::line_solves, 3, -1},
+      {Preconditioner::line_solves, Preconditioner::line_solves, 3, 0}};
+  for (const auto& [pc, p, sweeps, refinements] : pairs) {
     cg.solver.preconditioner = pc;
     newton.solver.preconditioner = p;
     newton.solver.smoothing_sweeps = sweeps;
+    newton.solver.model_refinements = refinements;
     kernels::Simulation a(cg), b(newton);
     schedulers::OmpStaticDriver driver;
     int newton_iterations = 0, linear_iterations = 0;
@@ -436,6 +527,31 @@ TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
     EXPECT_LT(worst, 1e-6) << "m, preconditioner " << kernels::to_string(p);
     EXPECT_GT(std::abs(a.state().position[2] - cg.cloth.origin.z()), 1e-3) << "the cloth moved";
     EXPECT_GT(a.diagnostics().contact_support, 0.0) << "and touches the obstacles";
+  }
+}
+
+TEST(NewtonMinimiser, AssemblesTheModelAgainAlongEachDirectionItsRefinementsAsk) {
+  // Under the V-cycle every assembly is one factorisation: a step of N >= 1 Newton iterations
+  // assembles at its start and before each later iteration (N), and again `refinements` times
+  // after each direction; a step that converges at once assembles once.
+  for (int refinements : {0, 1, 2}) {
+    kernels::SimulationConfig c = newton_config(small_drape());
+    c.solver.preconditioner = Preconditioner::vcycle;
+    c.solver.model_refinements = refinements;
+    kernels::Simulation sim(c);
+    schedulers::OmpStaticDriver driver;
+    std::int64_t expected = 0;
+    int newton_iterations = 0;
+    for (int step = 0; step < 8; ++step) {
+      const kernels::StepReport r = sim.step(driver);
+      ASSERT_EQ(r.sub_steps, 1);
+      EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
+      const int n = r.minimiser.iterations;
+      expected += n == 0 ? 1 : static_cast<std::int64_t>(n) * (1 + refinements);
+      newton_iterations += n;
+    }
+    EXPECT_GT(newton_iterations, 8) << "the drape needs Newton iterations";
+    EXPECT_EQ(sim.vcycle_work().factorisations, expected) << refinements << " refinements";
   }
 }
 
