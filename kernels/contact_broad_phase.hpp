@@ -48,10 +48,12 @@ struct TileContacts {
 };
 
 /// Broad phase of tile `tile`: the box of its free particles' points in `points` (positions,
-/// or the inertial targets for the initial guess) against every obstacle's distance bound.
+/// or the inertial targets for the initial guess), and of points + offsets where `offsets` is
+/// given (where a Newton direction would take them), against every obstacle's distance bound.
 inline TileContacts tile_contacts(const ClothMesh& mesh, const std::vector<Obstacle>& obstacles,
                                   double distance, std::int64_t tile,
-                                  const std::vector<double>& points) {
+                                  const std::vector<double>& points,
+                                  const std::vector<double>* offsets = nullptr) {
   TileContacts c;
   const double inf = std::numeric_limits<double>::infinity();
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(inf), hi = Eigen::Vector3d::Constant(-inf);
@@ -62,6 +64,12 @@ inline TileContacts tile_contacts(const ClothMesh& mesh, const std::vector<Obsta
     finite = finite && p.allFinite();
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
+    if (offsets != nullptr) {
+      const Eigen::Vector3d q = p + vec3(*offsets, s);
+      finite = finite && q.allFinite();
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
     ++c.particles;
   }
   const auto count = static_cast<std::int64_t>(obstacles.size());

@@ -146,22 +146,6 @@ class ModelHessian {
   TilePartials<ScalarSum> dot_partials_;
 };
 
-/// Contact stiffness k n n^T of particle s for every obstacle it touches at x or would touch at
-/// x + p, p the last Newton direction (n where it touches first): the model sees a contact
-/// the full step would make.
-inline Eigen::Matrix3d contact_reach(const StepContext& ctx, std::int64_t s,
-                                     const Eigen::Vector3d& x, const Eigen::Vector3d& p) {
-  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
-  const double d = ctx.config.contact.distance;
-  for (const Obstacle& obstacle : ctx.obstacles) {
-    Eigen::Vector3d n;
-    if (obstacle.signed_distance(x, n) < d || obstacle.signed_distance(x + p, n) < d) {
-      stiffness += ctx.contact_stiffness(s) * n * n.transpose();
-    }
-  }
-  return stiffness;
-}
-
 template <class Diagonal>
 void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
                             bool new_step) {
@@ -177,9 +161,10 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
   run.for_each_prepared(
       ElementKind::particles,
       [&](std::int64_t tile) {
-        // Reaching, x + p may touch what the broad phase of x ruled out.
-        return ctx.broad_phase() && !reach ? ctx.tile_contacts(tile, st.position).mask
-                                           : kEveryObstacle;
+        // Reaching, the box covers x and x + p.
+        return ctx.broad_phase()
+                   ? ctx.tile_contacts(tile, st.position, reach ? &st.direction : nullptr).mask
+                   : kEveryObstacle;
       },
       [&](std::int64_t s, ObstacleMask mask) {
         if (!ctx.is_free(s)) {
@@ -187,10 +172,11 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
           diagonal(s, Eigen::Matrix3d::Zero());
           return;
         }
+        const Eigen::Vector3d x = vec3(st.position, s);
+        const Eigen::Vector3d to = reach ? Eigen::Vector3d(x + vec3(st.direction, s)) : x;
         const Eigen::Matrix3d own =
             Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
-            (reach ? contact_reach(ctx, s, vec3(st.position, s), vec3(st.direction, s))
-                   : contact_penalty(ctx, s, vec3(st.position, s), mask).stiffness);
+            contact_penalty(ctx, s, x, mask, reach ? &to : nullptr).stiffness;
         store_symmetric(inertia_, s, own);
         diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
       });

@@ -55,24 +55,26 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     const double needed =
         0.5 * settings.tolerance * std::sqrt(static_cast<double>(current.free_particles)) / norm;
     forcing = std::min(settings.forcing_max, std::max(forcing, needed));
-    LinearSolveReport linear =
-        objective.solve_newton_direction(run, forcing, settings.max_linear_iterations);
-    report.linear_iterations += linear.iterations;
+    LinearSolveReport linear;
+    const auto solve = [&] {
+      linear = objective.solve_newton_direction(run, forcing, settings.max_linear_iterations);
+      report.linear_iterations += linear.iterations;
+      if (!linear.positive) ++report.restarts;
+    };
+    solve();
     // The model reached along the previous direction; one that reaches along this one sees the
     // kinks this step would cross (an edge pulled out of slack, a triple straightened), and
     // its direction is the one searched.
     for (int r = 0; r < settings.model_refinements && linear.slope < 0.0; ++r) {
-      if (!linear.positive) ++report.restarts;
       objective.refresh_preconditioner(run);
-      linear = objective.solve_newton_direction(run, forcing, settings.max_linear_iterations);
-      report.linear_iterations += linear.iterations;
+      solve();
     }
-    if (!linear.positive) ++report.restarts;
     if (!(linear.slope < 0.0)) {
       report.reason = StopReason::no_descent;
       break;
     }
-    const LineSearchResult ls = line_search(objective, run, search, current.value, linear.slope, 1.0);
+    const LineSearchResult ls =
+        line_search(objective, run, search, current.value, linear.slope, 1.0);
     report.evaluations += ls.evaluations;
     if (!ls.accepted) {
       objective.move(run, -ls.end_alpha);

@@ -59,10 +59,12 @@ struct StepContext {
   [[nodiscard]] bool broad_phase() const {
     return config.contact.broad_phase && !obstacles.empty();
   }
-  /// Broad phase of `tile` over `points` (positions or targets): contact_broad_phase.hpp.
-  [[nodiscard]] TileContacts tile_contacts(std::int64_t tile,
-                                           const std::vector<double>& points) const {
-    return kernels::tile_contacts(mesh, obstacles, config.contact.distance, tile, points);
+  /// Broad phase of `tile` over `points` (positions or targets), and over points + offsets
+  /// where `offsets` is given: contact_broad_phase.hpp.
+  [[nodiscard]] TileContacts tile_contacts(std::int64_t tile, const std::vector<double>& points,
+                                           const std::vector<double>* offsets = nullptr) const {
+    return kernels::tile_contacts(mesh, obstacles, config.contact.distance, tile, points,
+                                  offsets);
   }
 };
 
@@ -79,23 +81,29 @@ struct ContactPenalty {
   double support = 0.0;                         ///< summed normal force (N)
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  ///< sum k n n^T (preconditioner)
 };
-/// Obstacles outside `mask` are skipped (the broad phase proved them farther than d).
+/// Obstacles outside `mask` are skipped (the broad phase proved them farther than d, at x and
+/// at `reach` where that is given). `reach` (x + p, p a Newton direction) adds the stiffness
+/// k n n^T, and nothing else, of every obstacle the particle does not touch at x but would
+/// touch there: a Newton model that sees the contacts its direction would make.
 inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
                                       const Eigen::Vector3d& x,
-                                      ObstacleMask mask = kEveryObstacle) {
+                                      ObstacleMask mask = kEveryObstacle,
+                                      const Eigen::Vector3d* reach = nullptr) {
   ContactPenalty c;
   const double d = ctx.config.contact.distance;
-  for (std::size_t k = 0; k < ctx.obstacles.size(); ++k) {
-    if (!may_touch(mask, k)) continue;
-    const Obstacle& obstacle = ctx.obstacles[k];
+  const double k = ctx.contact_stiffness(s);
+  for (std::size_t i = 0; i < ctx.obstacles.size(); ++i) {
+    if (!may_touch(mask, i)) continue;
+    const Obstacle& obstacle = ctx.obstacles[i];
     Eigen::Vector3d n;
     const double phi = obstacle.signed_distance(x, n);
     if (phi < d) {
-      const double k = ctx.contact_stiffness(s);
       const double depth = d - phi;
       c.energy += 0.5 * k * depth * depth;
       c.gradient -= k * depth * n;
       c.support += k * depth;
+      c.stiffness += k * n * n.transpose();
+    } else if (reach != nullptr && obstacle.signed_distance(*reach, n) < d) {
       c.stiffness += k * n * n.transpose();
     }
   }

@@ -1,5 +1,6 @@
 // The contact broad phase is exact: a run with it gives the same bytes as a run without it
-// (positions, forces, every evaluation's value), for both formulations, with AMRC, with
+// (positions, forces, every evaluation's value), for both formulations, with AMRC, under
+// Newton (whose model also tests where its last direction would take each particle), with
 // obstacles several of which are far from parts of the cloth, across schedulers and thread
 // counts; it rules out work on such scenes; and scenes without obstacles do no contact work.
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@ namespace {
 struct Case {
   kernels::Formulation formulation;
   bool amrc;
+  bool newton = false;  ///< Newton with the V-cycle: its model's contacts reach along p too
 };
 
 /// A 25 x 17 cloth (blocks of 4) falling onto a box, a sphere and a plane below, with a
@@ -51,6 +53,11 @@ kernels::SimulationConfig contact_scene(const Case& test_case) {
   c.solver.max_iterations = test_case.formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
   c.solver.record_values = true;  // every iteration's objective value is compared too
+  if (test_case.newton) {
+    c.solver.method = kernels::StepMethod::newton;
+    c.solver.preconditioner = kernels::Preconditioner::vcycle;
+    c.solver.max_newton_iterations = 12;
+  }
   if (test_case.amrc) {
     c.amrc.enabled = true;
     c.amrc.levels = 3;
@@ -115,12 +122,14 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BroadPhase,
                          ::testing::Values(Case{kernels::Formulation::potential, false},
                                            Case{kernels::Formulation::violation, false},
                                            Case{kernels::Formulation::potential, true},
-                                           Case{kernels::Formulation::violation, true}),
+                                           Case{kernels::Formulation::violation, true},
+                                           Case{kernels::Formulation::potential, true, true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
                                                   : "violation";
-                           return info.param.amrc ? name + "_amrc" : name;
+                           if (info.param.amrc) name += "_amrc";
+                           return info.param.newton ? name + "_newton" : name;
                          });
 
 TEST(BroadPhase, SceneWithoutObstaclesDoesNoContactWork) {

@@ -12,14 +12,14 @@
 #include <random>
 #include <vector>
 
-#include "kernel_fixtures.hpp"
-#include "kernels/potential_objective.hpp"
+#include "newton_fixtures.hpp"
 #include "tests/harness/sanitizer_build.hpp"
 
 namespace clothbench {
 namespace {
 
 using kernels::Preconditioner;
+using testing::dot;
 
 /// A flat n x n sheet stretched by 2 % with two pinned corners and bent triples (the bending
 /// band on its loading branch): the linear model of the solver tests.
@@ -51,17 +51,10 @@ kernels::SimulationConfig graded_cloth(bool pins,
   return c;
 }
 
-struct Fixture {
-  explicit Fixture(const kernels::SimulationConfig& config)
-      : sim(config),
-        ctx{sim.mesh(), sim.material(), sim.obstacles(), sim.config(), sim.state()},
-        objective(ctx) {}
-  template <class F>
-  void run(F&& f) {
-    schedulers::OmpStaticDriver driver;
-    kernels::LoopRunner r(driver, sim.mesh(), nullptr, kernels::Instrumentation::off, nullptr);
-    f(r);
-  }
+/// The model Hessian's fixture (newton_fixtures.hpp) with a graded tree and the
+/// preconditioner applied.
+struct Fixture : testing::ModelFixture {
+  using ModelFixture::ModelFixture;
   /// Leaves of 1, 2 and 4 finest cells side by side (ghosts on their shared sides): two cells
   /// of 2 x 2, and a cell of 4 x 4 at the end of the sheet with cells of 2 x 2 around it.
   void grade() {
@@ -75,20 +68,6 @@ struct Fixture {
     }
     sim.end_tree_edit();
     ASSERT_GT(sim.mesh().ghost_count(), 0);
-  }
-  /// Ghosts on their midpoints, the per-step constants, then H and its preconditioner.
-  void assemble() {
-    schedulers::OmpStaticDriver driver;
-    (void)sim.evaluate(driver, true);
-    run([&](kernels::LoopRunner& r) {
-      objective.prepare_history(r);
-      objective.refresh_preconditioner(r);
-    });
-  }
-  std::vector<double> product(std::vector<double> v) {
-    std::vector<double> y(v.size(), 0.0);
-    run([&](kernels::LoopRunner& r) { (void)objective.model_hessian()->apply(r, ctx, v, y); });
-    return y;
   }
   std::vector<double> precondition(const std::vector<double>& r) {
     std::vector<double> z(r.size(), 0.0);
@@ -104,25 +83,9 @@ struct Fixture {
     return z;
   }
   std::vector<double> random_free(unsigned seed) const {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> unit(-1.0, 1.0);
-    std::vector<double> v(sim.state().position.size(), 0.0);
-    for (std::int64_t s = 0; s < sim.mesh().slot_count(); ++s) {
-      if (!ctx.is_free(s)) continue;
-      for (int k = 0; k < 3; ++k) v[3 * s + k] = unit(rng);
-    }
-    return v;
+    return testing::random_free_vector(sim, seed);
   }
-  kernels::Simulation sim;
-  kernels::StepContext ctx;
-  kernels::PotentialObjective objective;
 };
-
-double dot(const std::vector<double>& a, const std::vector<double>& b) {
-  double sum = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
-  return sum;
-}
 
 /// x . B y = y . B x and x . B x > 0 for four pairs of random vectors on the free particles.
 void expect_symmetric_positive(Fixture& f, unsigned seed) {
