@@ -25,6 +25,7 @@ Simulation::Simulation(const SimulationConfig& config)
     : config_(config),
       material_(FabricMaterial::from_kes(config.fabric)),
       mesh_(config.cloth, material_.areal_density) {
+  config_.solver = resolved_solver(config_.solver);
   for (const ObstacleConfig& o : config_.obstacles) obstacles_.emplace_back(o);
   check_events();
   state_.allocate(mesh_.slot_count());
@@ -418,7 +419,7 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   // AMRC tree 2 B.
   const std::size_t per_slot =
       7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
-  const Preconditioner kind = config.solver.preconditioner;
+  const Preconditioner kind = resolved_preconditioner(config.solver);
   const std::size_t lines =
       kind == Preconditioner::line_solves || kind == Preconditioner::multigrid
           ? n * LinePreconditioner::kBytesPerSlot
@@ -432,7 +433,7 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
           : 0;
   const std::size_t vcycle = kind == Preconditioner::vcycle ? n * VcyclePreconditioner::kBytesPerSlot : 0;
   const std::size_t newton =
-      config.solver.method == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
+      resolved_method(config.solver) == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
   return n * per_slot + lines + multigrid + vcycle + newton + (16u << 20);
 }
 

@@ -21,16 +21,18 @@ constexpr std::array<std::pair<ElementKernel, const char*>, 2> kElementKernels{{
     {ElementKernel::reference, "reference"},
     {ElementKernel::vector, "vector"},
 }};
-constexpr std::array<std::pair<StepMethod, const char*>, 2> kStepMethods{{
+constexpr std::array<std::pair<StepMethod, const char*>, 3> kStepMethods{{
     {StepMethod::nonlinear_cg, "nonlinear-cg"},
     {StepMethod::newton, "newton"},
+    {StepMethod::automatic, "automatic"},
 }};
-constexpr std::array<std::pair<Preconditioner, const char*>, 5> kPreconditioners{{
+constexpr std::array<std::pair<Preconditioner, const char*>, 6> kPreconditioners{{
     {Preconditioner::none, "none"},
     {Preconditioner::block_jacobi, "block-jacobi"},
     {Preconditioner::line_solves, "line-solves"},
     {Preconditioner::multigrid, "multigrid"},
     {Preconditioner::vcycle, "v-cycle"},
+    {Preconditioner::automatic, "automatic"},
 }};
 
 template <class Table, class Enum>
@@ -79,7 +81,7 @@ std::vector<std::string> preconditioner_names() { return names_of(kPreconditione
 
 std::vector<ConfigProblem> validate(const SimulationConfig& config) {
   std::vector<ConfigProblem> problems;
-  const SolverConfig& solver = config.solver;
+  const SolverConfig solver = resolved_solver(config.solver);
   const bool violation = solver.formulation == Formulation::violation;
   if (violation && solver.method == StepMethod::newton) {
     problems.push_back({"solver.method", "solver.formulation",

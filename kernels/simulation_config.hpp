@@ -36,6 +36,7 @@ enum class ElementKernel {
 enum class StepMethod {
   nonlinear_cg,  ///< Polak-Ribiere+ nonlinear CG (the paper's Algorithm-I)
   newton,        ///< truncated Newton: inner linear PCG on the model Hessian (potential only)
+  automatic,     ///< the formulation's own: Newton (potential), nonlinear CG (violation)
 };
 
 /// The preconditioner of the step's CG: of nonlinear CG, or of Newton's inner linear PCG.
@@ -45,11 +46,12 @@ enum class Preconditioner {
   line_solves,   ///< block-tridiagonal solves along the grid lines (potential formulation)
   multigrid,     ///< line-solve smoothing and a Galerkin coarse grid (Newton's inner PCG only)
   vcycle,        ///< V-cycle on the AMRC tree, line Gauss-Seidel smoother (Newton's inner PCG only)
+  automatic,     ///< the method's own: the V-cycle under Newton, block Jacobi under nonlinear CG
 };
 
-/// The one string form of each choice ("nonlinear-cg", "newton"; "none", "block-jacobi",
-/// "line-solves", "multigrid", "v-cycle"), used by scene files, the CLI and every output; from_string returns nullopt
-/// for any other text.
+/// The one string form of each choice ("nonlinear-cg", "newton", "automatic"; "none",
+/// "block-jacobi", "line-solves", "multigrid", "v-cycle", "automatic"), used by scene files, the
+/// CLI and every output; from_string returns nullopt for any other text.
 const char* to_string(Formulation formulation);
 const char* to_string(GradientMode gradient);
 const char* to_string(StepMethod method);
@@ -135,10 +137,12 @@ struct SolverConfig {
   /// The element loops' code (potential formulation, analytic gradient); same model, results
   /// within the stated tolerance of each other (tests/kernels/unit_vector_elements.cpp).
   ElementKernel kernel = ElementKernel::reference;
-  StepMethod method = StepMethod::nonlinear_cg;
-  /// Line solves: exact block-tridiagonal solves along the grid lines of both directions
-  /// (potential formulation only; kernels/line_preconditioner.hpp).
-  Preconditioner preconditioner = Preconditioner::block_jacobi;
+  /// Automatic (the default): Newton with the V-cycle for the potential formulation, nonlinear
+  /// CG with block Jacobi for the violation formulation (resolved_solver). Nonlinear CG with
+  /// block Jacobi is the paper's own setting. Line solves: exact block-tridiagonal solves along
+  /// the grid lines of both directions (potential formulation only; line_preconditioner.hpp).
+  StepMethod method = StepMethod::automatic;
+  Preconditioner preconditioner = Preconditioner::automatic;
   /// Stop when the RMS normalised residual sqrt(En / particles) is below this.
   double tolerance = 1.0e-3;
   /// Nonlinear CG: iterations per step.
@@ -181,16 +185,37 @@ struct SolverConfig {
   double time_budget = 0.0;
 };
 
+/// The method a solver configuration runs (automatic resolved by the formulation).
+inline StepMethod resolved_method(const SolverConfig& solver) {
+  if (solver.method != StepMethod::automatic) return solver.method;
+  return solver.formulation == Formulation::violation ? StepMethod::nonlinear_cg
+                                                      : StepMethod::newton;
+}
+
+/// The preconditioner a solver configuration runs (automatic resolved by the method).
+inline Preconditioner resolved_preconditioner(const SolverConfig& solver) {
+  if (solver.preconditioner != Preconditioner::automatic) return solver.preconditioner;
+  return resolved_method(solver) == StepMethod::newton ? Preconditioner::vcycle
+                                                       : Preconditioner::block_jacobi;
+}
+
+/// The configuration with its automatic choices resolved: what a Simulation runs and reports.
+inline SolverConfig resolved_solver(SolverConfig solver) {
+  solver.method = resolved_method(solver);
+  solver.preconditioner = resolved_preconditioner(solver);
+  return solver;
+}
+
 /// The sweeps of nonlinear smoothing a solver configuration runs (the automatic -1 resolved).
 inline int effective_smoothing_sweeps(const SolverConfig& solver) {
   if (solver.smoothing_sweeps >= 0) return solver.smoothing_sweeps;
-  return solver.method == StepMethod::newton ? kDefaultSmoothingSweeps : 0;
+  return resolved_method(solver) == StepMethod::newton ? kDefaultSmoothingSweeps : 0;
 }
 
 /// The model refinements per Newton direction a solver configuration runs (-1 resolved).
 inline int effective_model_refinements(const SolverConfig& solver) {
   if (solver.model_refinements >= 0) return solver.model_refinements;
-  return solver.method == StepMethod::newton ? kDefaultModelRefinements : 0;
+  return resolved_method(solver) == StepMethod::newton ? kDefaultModelRefinements : 0;
 }
 
 /// Adaptive mesh refinement and coarsening (MODEL.md section 6); parsed now, used by AMRC.

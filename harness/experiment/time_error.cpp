@@ -75,23 +75,45 @@ std::vector<Setting> settings(int particles, const double& base_seconds) {
     }
   }
   for (double factor : {10.0, 0.1}) {
-    list.push_back({fmt::format("cg-tol-x{}", factor), fmt::format("CG tolerance x {}", factor),
+    list.push_back({fmt::format("tol-x{}", factor), fmt::format("solver tolerance x {}", factor),
                     [factor](Scene& s) { s.simulation.solver.tolerance *= factor; }});
   }
-  for (int cap : {10, 30}) {
-    list.push_back({fmt::format("cg-cap-{}", cap), fmt::format("at most {} CG iterations per step", cap),
-                    [cap](Scene& s) { s.simulation.solver.max_iterations = cap; }});
+  // Caps on the iterations per step of the scene's method (Newton's, or nonlinear CG's).
+  const auto cap = [](Scene& s, int newton, int cg) {
+    kernels::SolverConfig& solver = s.simulation.solver;
+    if (kernels::resolved_method(solver) == kernels::StepMethod::newton) {
+      solver.max_newton_iterations = newton;
+    } else {
+      solver.max_iterations = cg;
+    }
+  };
+  for (const std::pair<int, int>& caps : {std::pair{3, 10}, std::pair{10, 30}}) {
+    const int newton = caps.first, cg = caps.second;  // named copies: lambdas capture them
+    list.push_back({fmt::format("cap-{}", newton),
+                    fmt::format("at most {} Newton ({} nonlinear CG) iterations per step", newton,
+                                cg),
+                    [cap, newton, cg](Scene& s) { cap(s, newton, cg); }});
   }
-  // The scene's tolerance with the reference's iteration cap: steps that CG cannot finish
+  // The scene's tolerance with a cap ten times the scene's: steps that the solver cannot finish
   // within the scene's cap are otherwise rejected and redone as two halves, which changes the
   // trajectory (kernels/MODEL-NOTES.md, "The experiments at the small size").
-  list.push_back({"cg-cap-x10", "CG iteration cap x 10 (as the reference's), scene tolerance",
-                  [](Scene& s) { s.simulation.solver.max_iterations *= 10; }});
-  // The line-solve preconditioner at the scene's tolerance and cap: fewer CG iterations a step,
-  // so fewer steps to halve (kernels/MODEL-NOTES.md, "Line solves"). The time-error scenes use
-  // the potential formulation with preconditioning on, which it needs.
-  list.push_back({"line-solves", "line-solve preconditioner, scene tolerance and cap",
-                  [](Scene& s) { s.simulation.solver.preconditioner = kernels::Preconditioner::line_solves; }});
+  list.push_back({"cap-x10", "iteration cap x 10 (as the reference's), scene tolerance",
+                  [](Scene& s) {
+                    s.simulation.solver.max_iterations *= 10;
+                    s.simulation.solver.max_newton_iterations *= 10;
+                  }});
+  // The paper's solver (nonlinear CG with block Jacobi), and nonlinear CG with the line solves:
+  // fewer CG iterations a step than block Jacobi (kernels/MODEL-NOTES.md, "Line solves").
+  list.push_back({"paper-cg", "nonlinear CG with block Jacobi (the paper's), scene tolerance",
+                  [](Scene& s) {
+                    s.simulation.solver.method = kernels::StepMethod::nonlinear_cg;
+                    s.simulation.solver.preconditioner = kernels::Preconditioner::block_jacobi;
+                  }});
+  list.push_back({"cg-line-solves", "nonlinear CG with the line solves, scene tolerance",
+                  [](Scene& s) {
+                    s.simulation.solver.method = kernels::StepMethod::nonlinear_cg;
+                    s.simulation.solver.preconditioner = kernels::Preconditioner::line_solves;
+                  }});
   list.push_back({"numeric-gradient", "numeric (local finite-difference) gradient", [](Scene& s) {
                     s.simulation.solver.gradient = kernels::GradientMode::numeric;
                   }});

@@ -145,8 +145,8 @@ int run_scene(const RunOptions& options) {
              scene.simulation.fabric_name,
              kernels::to_string(scene.simulation.solver.formulation),
              kernels::to_string(scene.simulation.solver.gradient),
-             kernels::to_string(scene.simulation.solver.method),
-             kernels::to_string(scene.simulation.solver.preconditioner));
+             kernels::to_string(kernels::resolved_method(scene.simulation.solver)),
+             kernels::to_string(kernels::resolved_preconditioner(scene.simulation.solver)));
   if (scene.simulation.solver.kernel == kernels::ElementKernel::vector) {
     const kernels::vector::ElementLanesKernels& lanes = kernels::vector::element_lanes_kernels();
     fmt::print("  kernel vector ({}, {} lanes)\n", lanes.isa, lanes.lanes);

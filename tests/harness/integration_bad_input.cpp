@@ -173,10 +173,17 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWh
   const fs::path out = fresh_dir("run-lines");
   const std::string common =
       "run " + quote(kTiny.string()) + " --steps 2 --no-vtk --out " + quote(out.string());
-  const Outcome lines = run(common + " --preconditioner line-solves");
+  // The scene says nothing about the solver: Newton with the V-cycle.
+  const Outcome automatic = run(common);
+  ASSERT_EQ(automatic.exit_code, 0) << automatic.output;
+  EXPECT_THAT(automatic.output, HasSubstr("method newton, preconditioner v-cycle\n"));
+  const Outcome lines = run(common + " --method nonlinear-cg --preconditioner line-solves");
   ASSERT_EQ(lines.exit_code, 0) << lines.output;
   EXPECT_THAT(lines.output, HasSubstr("method nonlinear-cg, preconditioner line-solves\n"));
   EXPECT_THAT(lines.output, HasSubstr("\nVerification: PASSED"));
+  const Outcome cg = run(common + " --method nonlinear-cg");  // its own: block Jacobi
+  ASSERT_EQ(cg.exit_code, 0) << cg.output;
+  EXPECT_THAT(cg.output, HasSubstr("method nonlinear-cg, preconditioner block-jacobi\n"));
   const Outcome newton = run(common + " --method newton --preconditioner line-solves");
   ASSERT_EQ(newton.exit_code, 0) << newton.output;
   EXPECT_THAT(newton.output, HasSubstr("method newton, preconditioner line-solves\n"));
@@ -187,6 +194,9 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWh
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
   EXPECT_THAT(refused.output, HasSubstr("solver.preconditioner: the line-solve preconditioner is "
                                         "implemented for the potential formulation only"));
+  const Outcome violation = run(common + " --formulation violation");  // its own: CG
+  ASSERT_EQ(violation.exit_code, 0) << violation.output;
+  EXPECT_THAT(violation.output, HasSubstr("method nonlinear-cg, preconditioner block-jacobi\n"));
   const Outcome no_newton = run(common + " --method newton --formulation violation");
   EXPECT_EQ(no_newton.exit_code, 2) << no_newton.output;
   EXPECT_THAT(no_newton.output, HasSubstr("solver.method: Newton's method is implemented for the "
@@ -197,7 +207,7 @@ TEST_F(BadInputBinary, PreconditionerOverrideSelectsLineSolvesAndMultigridOnlyWh
   // The multigrids precondition Newton's inner PCG only.
   for (const char* multigrid : {"multigrid", "v-cycle"}) {
     const std::string name = multigrid;
-    const Outcome refused_alone = run(common + " --preconditioner " + name);
+    const Outcome refused_alone = run(common + " --method nonlinear-cg --preconditioner " + name);
     EXPECT_EQ(refused_alone.exit_code, 2) << refused_alone.output;
     EXPECT_THAT(refused_alone.output,
                 HasSubstr("solver.preconditioner: the " + name +

@@ -320,17 +320,37 @@ TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormula
   }
 }
 
-TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJacobi) {
+TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNewtonWithTheVcycle) {
   using clothbench::kernels::Preconditioner;
   using clothbench::kernels::StepMethod;
   const kernels::SolverConfig defaults =
       parse_scene("[cloth]\nparticles = [9, 9]\n", "solver.toml", kPresets).simulation.solver;
-  EXPECT_EQ(defaults.method, StepMethod::nonlinear_cg);
-  EXPECT_EQ(defaults.preconditioner, Preconditioner::block_jacobi);
+  EXPECT_EQ(defaults.method, StepMethod::automatic);
+  EXPECT_EQ(defaults.preconditioner, Preconditioner::automatic);
+  EXPECT_EQ(kernels::resolved_method(defaults), StepMethod::newton);
+  EXPECT_EQ(kernels::resolved_preconditioner(defaults), Preconditioner::vcycle);
+  {  // and a Simulation runs (and reports) what they resolve to
+    const kernels::Simulation sim(
+        parse_scene("[cloth]\nparticles = [9, 9]\n", "solver.toml", kPresets).simulation);
+    EXPECT_EQ(sim.config().solver.method, StepMethod::newton);
+    EXPECT_EQ(sim.config().solver.preconditioner, Preconditioner::vcycle);
+  }
+  // Each method's own preconditioner; the violation formulation's own method.
+  kernels::SolverConfig cg = defaults;
+  cg.method = StepMethod::nonlinear_cg;
+  EXPECT_EQ(kernels::resolved_preconditioner(cg), Preconditioner::block_jacobi);
+  const kernels::SolverConfig violation =
+      parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n",
+                  "solver.toml", kPresets)
+          .simulation.solver;
+  EXPECT_EQ(kernels::resolved_method(violation), StepMethod::nonlinear_cg);
+  EXPECT_EQ(kernels::resolved_preconditioner(violation), Preconditioner::block_jacobi);
   for (const std::string& name : clothbench::kernels::preconditioner_names()) {
-    // The multigrids precondition Newton's inner PCG only.
-    const std::string method =
-        name == "multigrid" || name == "v-cycle" ? "method = \"newton\"\n" : "";
+    // Every preconditioner under nonlinear CG, but the multigrids, which precondition Newton's
+    // inner PCG only.
+    const std::string method = name == "multigrid" || name == "v-cycle"
+                                   ? "method = \"newton\"\n"
+                                   : "method = \"nonlinear-cg\"\n";
     const std::string text =
         "[cloth]\nparticles = [9, 9]\n[solver]\n" + method + "preconditioner = \"" + name + "\"\n";
     const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
@@ -353,7 +373,10 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNonlinearCgWithBlockJaco
   EXPECT_EQ(smoothing.smoothing_sweeps, 4);
   EXPECT_EQ(smoothing.smoothing_threshold, 0.5);
   EXPECT_EQ(smoothing.model_refinements, 2);
-  EXPECT_EQ(kernels::effective_model_refinements(kernels::SolverConfig{}), 0) << "CG: none";
+  kernels::SolverConfig cg_solver;
+  cg_solver.method = StepMethod::nonlinear_cg;
+  EXPECT_EQ(kernels::effective_model_refinements(cg_solver), 0) << "CG: none";
+  EXPECT_EQ(kernels::effective_model_refinements(kernels::SolverConfig{}), 1) << "Newton: one";
   EXPECT_EQ(smoothing.preconditioner, kernels::Preconditioner::vcycle);
   EXPECT_EQ(smoothing.coarsest_nodes, 40);
   EXPECT_EQ(kernels::SolverConfig{}.coarsest_nodes, kernels::VcyclePreconditioner::kCoarsestNodes);
@@ -373,7 +396,7 @@ TEST(SceneLoader, OldPreconditionerBooleansAreRefusedWithWhatToWrite) {
        "(expected preconditioner = \"line-solves\" instead of line_solves = true)"},
       {"method = \"multigrid\"\n",
        "solver.toml:4:10: [solver] method: unknown value \"multigrid\" (expected one of: "
-       "nonlinear-cg, newton)"},
+       "nonlinear-cg, newton, automatic)"},
   };
   for (const auto& [line, message] : cases) {
     try {
@@ -392,10 +415,12 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
     kernels::SimulationConfig config;  ///< the same settings handed to the kernel
   };
   std::vector<Case> cases(5);
-  cases[0].text = "[cloth]\nparticles = [9, 9]\n[solver]\npreconditioner = \"multigrid\"\n";
+  const std::string cg = "[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"nonlinear-cg\"\n";
+  cases[0].text = cg + "preconditioner = \"multigrid\"\n";
   cases[0].message =
-      "solver.toml:4:18: [solver] preconditioner: the multigrid preconditioner preconditions "
+      "solver.toml:5:18: [solver] preconditioner: the multigrid preconditioner preconditions "
       "Newton's inner linear PCG";
+  cases[0].config.solver.method = kernels::StepMethod::nonlinear_cg;
   cases[0].config.solver.preconditioner = kernels::Preconditioner::multigrid;
   cases[1].text =
       "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\npreconditioner = "
@@ -414,15 +439,17 @@ TEST(SceneLoader, MultigridWithoutNewtonOrWithoutACoarseGridIsLocatedAtTheSettin
   cases[2].config.cloth.particles_i = cases[2].config.cloth.particles_j = 2;
   cases[2].config.solver.method = kernels::StepMethod::newton;
   cases[2].config.solver.preconditioner = kernels::Preconditioner::multigrid;
-  cases[3].text = "[cloth]\nparticles = [9, 9]\n[solver]\nsmoothing_sweeps = 2\n";
+  cases[3].text = cg + "smoothing_sweeps = 2\n";
   cases[3].message =
-      "solver.toml:4:20: [solver] smoothing_sweeps: the nonlinear smoothing runs after each of "
+      "solver.toml:5:20: [solver] smoothing_sweeps: the nonlinear smoothing runs after each of "
       "Newton's line searches";
+  cases[3].config.solver.method = kernels::StepMethod::nonlinear_cg;
   cases[3].config.solver.smoothing_sweeps = 2;
-  cases[4].text = "[cloth]\nparticles = [9, 9]\n[solver]\nmodel_refinements = 1\n";
+  cases[4].text = cg + "model_refinements = 1\n";
   cases[4].message =
-      "solver.toml:4:21: [solver] model_refinements: the model is refined along each of "
+      "solver.toml:5:21: [solver] model_refinements: the model is refined along each of "
       "Newton's directions";
+  cases[4].config.solver.method = kernels::StepMethod::nonlinear_cg;
   cases[4].config.solver.model_refinements = 1;
   for (const Case& c : cases) {
     try {

@@ -181,7 +181,11 @@ TEST(StressVerification, ACellThatSinksIntoTheBoxFailsOnBothPenetrations) {
   EXPECT_THAT(failures, ::testing::Not(HasSubstr("mass")));
   EXPECT_THAT(failures, ::testing::Not(HasSubstr("crack")));
 
+  // Held: the sheet lies wholly on a wider box. (Over an edge of the narrow box, the 2.5 cm
+  // chords of this coarse sheet cut the corner by more than the contact distance once the
+  // sheet has folded over it, 10-20 steps in, whichever solver: a true finding.)
   cell.scene.simulation = sheet_on_box();
+  cell.scene.simulation.obstacles[0].half_extents = {0.15, 0.15, 0.1};
   const auto held = harness::run_stress_cell(cell, driver, [] { return true; });
   ASSERT_TRUE(held.has_value());
   EXPECT_TRUE(held->passed) << ::testing::PrintToString(held->failures);

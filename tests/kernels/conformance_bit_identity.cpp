@@ -79,6 +79,9 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
+  // Each case names its solver: nonlinear CG with block Jacobi unless it says otherwise.
+  c.solver.method = kernels::StepMethod::nonlinear_cg;
+  c.solver.preconditioner = kernels::Preconditioner::block_jacobi;
   if (test_case.vector) c.solver.kernel = kernels::ElementKernel::vector;
   if (test_case.line_solves) c.solver.preconditioner = kernels::Preconditioner::line_solves;
   if (test_case.multigrid) c.solver.preconditioner = kernels::Preconditioner::multigrid;

@@ -53,6 +53,8 @@ kernels::SimulationConfig contact_scene(const Case& test_case) {
   c.solver.max_iterations = test_case.formulation == kernels::Formulation::potential ? 25 : 6;
   c.solver.tolerance = 1e-6;
   c.solver.record_values = true;  // every iteration's objective value is compared too
+  c.solver.method = kernels::StepMethod::nonlinear_cg;
+  c.solver.preconditioner = kernels::Preconditioner::block_jacobi;
   if (test_case.newton) {
     c.solver.method = kernels::StepMethod::newton;
     c.solver.preconditioner = kernels::Preconditioner::vcycle;

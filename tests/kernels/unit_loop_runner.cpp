@@ -51,6 +51,9 @@ kernels::SimulationConfig graded_config() {
   c.cloth.pinned = {{0, 0}, {16, 12}};
   c.amrc.enabled = true;
   c.amrc.levels = 2;
+  // A nonlinear CG step: element and particle loops only (the V-cycle's loops also run over
+  // its coarse levels' lines: unit_multigrid, conformance_bit_identity).
+  c.solver.method = kernels::StepMethod::nonlinear_cg;
   return c;
 }
 

@@ -111,6 +111,7 @@ TEST(NonlinearSmoothing, TheColouringIsKeptWhileTheMeshIsUnchangedAndMadeAgainAf
 
 TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
   kernels::SimulationConfig cg = small_drape();
+  cg.solver.method = StepMethod::nonlinear_cg;
   kernels::SimulationConfig newton = newton_config(cg);
   // Nonlinear CG has no multigrid: Newton-multigrid is compared with CG and line solves.
   // The last pairs: Newton with nonlinear smoothing after each line search, and without the
