@@ -161,7 +161,7 @@ struct SolverConfig {
   /// kDefaultModelRefinements under Newton, none under nonlinear CG).
   int model_refinements = -1;
   /// V-cycle: a level with at most this many nodes is solved directly (sparse LDL^T).
-  std::int64_t coarsest_nodes = 600;
+  std::int64_t coarsest_nodes = 64;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
   /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.

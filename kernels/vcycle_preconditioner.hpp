@@ -12,7 +12,7 @@
 // holds an identity row per coarse node and has full column rank. The coarse operators are
 // Galerkin products A_(k+1) = P_k^T A_k P_k, so they see the contact stiffness k n n^T that the
 // model holds for particles in contact. The hierarchy stops when a level has at most
-// kCoarsestNodes nodes (600) or nothing coarser exists; that level is solved directly (sparse
+// kCoarsestNodes nodes (64) or nothing coarser exists; that level is solved directly (sparse
 // LDL^T).
 //
 // Smoother. Alternating-direction line Gauss-Seidel: along each grid direction the nodes of a
@@ -48,7 +48,7 @@ namespace clothbench::kernels {
 class VcyclePreconditioner {
  public:
   /// A level this small (nodes) is solved directly.
-  static constexpr std::int64_t kCoarsestNodes = 600;
+  static constexpr std::int64_t kCoarsestNodes = 64;
 
   /// The size below which a level is solved directly (tests use small values to get several
   /// levels on small meshes); takes effect at the next factor().
