@@ -102,7 +102,13 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
     EXPECT_NEAR(parts, step, 1e-12 + 1e-12 * wall) << where;
     EXPECT_NEAR(step + a["unaccounted_seconds"].get<double>(), wall, 1e-12 + 1e-12 * wall) << where;
     EXPECT_GE(a["unaccounted_seconds"].get<double>(), 0.0) << where;
-    const double tolerance = 0.02 * wall + 50e-6 * row["steps"].get<double>();
+    // Thread 0 times a loop from its own entry; a thread that enters before it (thread 0 still
+    // finishing the previous loop's bookkeeping) counts that lead as work, so the busiest
+    // thread can exceed the loop's wall by it: about a microsecond a loop, ten under a
+    // sanitizer on a loaded machine. Newton's V-cycle runs thousands of short loops a run.
+    const double per_loop = clothbench_test::kSanitized ? 10e-6 : 1e-6;
+    const double tolerance = 0.02 * wall + 50e-6 * row["steps"].get<double>() +
+                             per_loop * a["loops"].get<double>();
     // Every component is a time: non-negative up to the same tolerance.
     for (const char* k : {"sequential_overhead_seconds", "parallel_overhead_seconds",
                           "load_imbalance_seconds", "parallel_work_seconds"}) {
