@@ -194,9 +194,8 @@ std::size_t VcyclePreconditioner::memory_bytes() const {
                  sizeof(std::int64_t) +
              acc.values.capacity() * sizeof(double);
   }
-  for (std::size_t e = 0; e < row_cols_.size(); ++e) {
-    bytes +=
-        row_cols_[e].capacity() * sizeof(std::int64_t) + row_values_[e].capacity() * sizeof(double);
+  for (const std::vector<std::int64_t>& cols : row_cols_) {
+    bytes += cols.capacity() * sizeof(std::int64_t);
   }
   for (const Level& level : levels_) {
     bytes += (level.a.start.capacity() + level.a.col.capacity()) * sizeof(std::int64_t) +

@@ -163,8 +163,8 @@ class VcyclePreconditioner {
   /// One thread: level 0's nodes and pattern, the coarser levels and their prolongations;
   /// remembers the topology they were made for.
   void make_structure(const StepContext& ctx, const ModelHessian& hessian);
-  /// Row `row` of level k+1's operator P^T A P (one thread per row): into row_cols_ and
-  /// row_values_ when `pattern` (a new structure), else into the level's values in place.
+  /// Row `row` of level k+1's operator P^T A P (one thread per row): its sorted columns into
+  /// row_cols_ when `pattern` (a new structure), else its values into the level in place.
   void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc, bool pattern);
   /// One thread: lines of a level along direction d, their colours and band widths.
   void build_lines(Level& level, int d);
@@ -182,8 +182,7 @@ class VcyclePreconditioner {
   bool new_structure_ = false;  ///< written in factor()'s first single, read after it
   std::size_t widest_ = 0;      ///< nodes of the largest coarse level (accumulators)
   std::vector<Accumulator> accumulators_;            ///< one per thread
-  std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin rows before concatenation
-  std::vector<std::vector<double>> row_values_;
+  std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin columns before concatenation
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> direct_;
   bool direct_ready_ = false;
   Eigen::VectorXd coarse_b_, coarse_x_;

@@ -26,6 +26,9 @@ void append_bytes(std::string& out, const std::vector<T>& values) {
 std::string state_bytes(const kernels::Simulation& simulation) {
   const kernels::ClothState& state = simulation.state();
   std::string bytes;
+  // One allocation of the final size (growing by doubling held up to twice the state).
+  bytes.reserve((state.position.size() + state.edge_force.size() + state.triple_moment.size()) *
+                sizeof(double));
   append_bytes(bytes, state.position);
   append_bytes(bytes, state.edge_force);
   append_bytes(bytes, state.triple_moment);
