@@ -41,7 +41,7 @@ std::string millimetres(double metres) { return fmt::format("{:.3f}", 1e3 * metr
 std::string cell_line(const StressCellResult& r) {
   return fmt::format(
       "  {:<24} {:>11} steps  strain {:.4f}  penetration {}/{} mm  cost trend {}  "
-      "mass drift {:.1e}  CG {:.0f}/step (max {})  rejected {}  unconverged {}  {:.1f} s  {}\n",
+      "mass drift {:.1e}  {} {:.0f}/step (max {}{})  rejected {}  unconverged {}  {:.1f} s  {}\n",
       r.name, fmt::format("{}/{}", r.steps_completed, r.steps_planned), r.max_strain,
       millimetres(r.max_particle_penetration), millimetres(r.max_surface_penetration),
       r.cost_trend.ratio
@@ -50,8 +50,13 @@ std::string cell_line(const StressCellResult& r) {
                             ? " (above bound)"
                             : "")
           : std::string("-"),
-      r.mass_drift, static_cast<double>(r.cg_iterations) / std::max(1, r.steps_completed),
-      r.max_step_iterations, r.rejected_steps, r.unconverged_steps, r.wall_seconds,
+      r.mass_drift, r.method == "newton" ? "Newton" : "CG",
+      static_cast<double>(r.cg_iterations) / std::max(1, r.steps_completed), r.max_step_iterations,
+      r.method == "newton"
+          ? fmt::format(", PCG {:.0f}/step",
+                        static_cast<double>(r.linear_iterations) / std::max(1, r.steps_completed))
+          : std::string(),
+      r.rejected_steps, r.unconverged_steps, r.wall_seconds,
       r.passed ? "PASSED" : "FAILED");
 }
 

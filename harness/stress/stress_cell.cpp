@@ -148,7 +148,9 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   r.cost_trend = trend_of(cost, r.cost_bound);
   r.work_trend = trend_of(work, 0.0);
   r.kinetic_energy_trend = trend_of(energy, 0.0);
+  r.method = kernels::to_string(kernels::resolved_method(config.solver));
   r.cg_iterations = summary.total_iterations;
+  r.linear_iterations = summary.total_linear_iterations;
   r.evaluations = summary.total_evaluations;
   r.rejected_steps = summary.rejected_steps;
   r.amrc_checks = static_cast<int>(summary.amrc_events.size());

@@ -1,5 +1,5 @@
 // One cell of `clothbench stress`: simulated step by step with the state checked after every
-// step, its figures (first non-finite value, maxima over the run, trends, mass drift, CG work)
+// step, its figures (first non-finite value, maxima over the run, trends, mass drift, solver work)
 // and its verdict.
 #pragma once
 
@@ -39,12 +39,14 @@ struct StressCellResult {
   /// [solver] reject_residual squared: the kernel rejects (and redoes as two half steps) any
   /// step above it until its halvings run out; a step above it was accepted only then.
   double cost_bound = 0.0;
-  Trend work_trend;                 ///< CG iterations per step (reported, not judged)
+  Trend work_trend;                 ///< solver iterations per step (reported, not judged)
   Trend kinetic_energy_trend;       ///< J, after each step (reported, not judged)
   double max_kinetic_energy = 0.0;  ///< J
-  std::int64_t cg_iterations = 0;
+  std::string method;               ///< the step minimiser that ran: nonlinear-cg or newton
+  std::int64_t cg_iterations = 0;   ///< its iterations (nonlinear CG, or Newton's outer ones)
+  std::int64_t linear_iterations = 0;  ///< Newton's inner PCG iterations (0 under CG)
   std::int64_t evaluations = 0;
-  int max_step_iterations = 0;      ///< most CG iterations of one step (its sub-steps summed)
+  int max_step_iterations = 0;      ///< most solver iterations of one step (sub-steps summed)
   std::int64_t rejected_steps = 0;  ///< attempts redone as two half steps
   int unconverged_steps = 0;        ///< steps accepted without reaching the tolerance
   int amrc_checks = 0;

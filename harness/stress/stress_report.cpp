@@ -94,8 +94,10 @@ json cell_json(const StressCellResult& r) {
       {"work_trend", trend_json(r.work_trend)},
       {"kinetic_energy",
        {{"max_j", number(r.max_kinetic_energy)}, {"trend", trend_json(r.kinetic_energy_trend)}}},
-      {"cg",
-       {{"iterations", r.cg_iterations},
+      {"cg",  // the step minimiser's work (the key predates Newton)
+       {{"method", r.method},
+        {"iterations", r.cg_iterations},
+        {"linear_iterations", r.linear_iterations},
         {"evaluations", r.evaluations},
         {"per_step_mean", number(static_cast<double>(r.cg_iterations) / steps)},
         {"per_step_max", r.max_step_iterations}}},
@@ -107,6 +109,27 @@ json cell_json(const StressCellResult& r) {
       {"passed", r.passed},
       {"failures", r.failures}};
 }
+
+namespace {
+
+/// "Newton 4" / "nonlinear-cg 12": the mean iterations a step, named by the method that ran
+/// (documents written before the method was recorded show the number alone).
+std::string solver_mean(const json& cg) {
+  const std::string mean = shown(cg["per_step_mean"], "{:.0f}");
+  const std::string method = cg.value("method", std::string());
+  if (method.empty()) return mean;
+  return fmt::format("{} {}", method == "newton" ? "Newton" : "CG", mean);
+}
+
+/// The most iterations of one step; under Newton with its inner PCG iterations a step.
+std::string solver_max(const json& cg, int steps) {
+  const std::string max = fmt::format("{}", cg["per_step_max"].get<int>());
+  if (cg.value("method", std::string()) != "newton" || steps <= 0) return max;
+  return fmt::format("{} (PCG {:.0f} a step)",
+                     max, cg.value("linear_iterations", std::int64_t{0}) / static_cast<double>(steps));
+}
+
+}  // namespace
 
 std::string stress_markdown(const json& document) {
   std::ostringstream out;
@@ -127,7 +150,7 @@ std::string stress_markdown(const json& document) {
         kQuickParticles, kQuickParticles);
   }
   out << "| cell | change | particles | steps | first non-finite | max strain | max penetration "
-         "particles / surface (mm) | cost trend | mass drift | CG iterations per step (mean / "
+         "particles / surface (mm) | cost trend | mass drift | solver iterations per step (mean / "
          "max) | rejected / unconverged steps | time (s) | result |\n";
   out << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::vector<std::string> failures;
@@ -146,7 +169,7 @@ std::string stress_markdown(const json& document) {
         pen["surface"].is_number() ? fmt::format("{:.3f}", 1e3 * pen["surface"].get<double>())
                                    : "-",
         trend_text(c["cost_trend"]), shown(c["mass_drift"], "{:.1e}"),
-        shown(c["cg"]["per_step_mean"], "{:.0f}"), c["cg"]["per_step_max"].get<int>(),
+        solver_mean(c["cg"]), solver_max(c["cg"], c["steps"]["completed"].get<int>()),
         c["rejected_steps"].get<std::int64_t>(), c["unconverged_steps"].get<int>(),
         shown(c["seconds"]["wall"], "{:.1f}"), passed ? "PASSED" : "FAILED");
     for (const json& f : c["failures"]) {
@@ -214,9 +237,11 @@ std::string stress_csv(const json& document) {
                                            "cost_last_quarter_above_bound",
                                            "work_last_to_first",
                                            "max_kinetic_energy_j",
+                                           "solver_method",
                                            "cg_iterations",
                                            "cg_iterations_per_step_mean",
                                            "cg_iterations_per_step_max",
+                                           "linear_iterations",
                                            "evaluations",
                                            "rejected_steps",
                                            "unconverged_steps",
@@ -259,9 +284,11 @@ std::string stress_csv(const json& document) {
                                       c["cost_trend"]["last_quarter_above_bound"],
                                       c["work_trend"]["last_to_first"],
                                       c["kinetic_energy"]["max_j"],
+                                      c["cg"].value("method", json()),
                                       c["cg"]["iterations"],
                                       c["cg"]["per_step_mean"],
                                       c["cg"]["per_step_max"],
+                                      c["cg"].value("linear_iterations", json()),
                                       c["cg"]["evaluations"],
                                       c["rejected_steps"],
                                       c["unconverged_steps"],

@@ -73,6 +73,11 @@ TEST_F(StressBinary, TwoQuickCellsPassAndEveryOutputHasItsStructure) {
   EXPECT_LT(small_step["max_penetration_m"]["particles"].get<double>(),
             small_step["contact_distance_m"].get<double>());
   EXPECT_GT(small_step["cg"]["iterations"].get<int>(), 0);
+  // The base scene's automatic solver is Newton: its iterations are named so, with the inner
+  // PCG iterations beside them (at least one a Newton iteration).
+  EXPECT_EQ(small_step["cg"]["method"], "newton");
+  EXPECT_GE(small_step["cg"]["linear_iterations"].get<std::int64_t>(),
+            small_step["cg"]["iterations"].get<std::int64_t>());
   EXPECT_TRUE(small_step["cost_trend"]["quarter_means"].is_array());
   EXPECT_FALSE(small_step["cost_trend"]["grows_without_bound"].get<bool>());
   EXPECT_TRUE(small_step["failures"].empty());
@@ -87,12 +92,15 @@ TEST_F(StressBinary, TwoQuickCellsPassAndEveryOutputHasItsStructure) {
   EXPECT_THAT(md, testing::ContainsRegex("\n\\| dt-1e-4 \\| dt = 0.0001 s \\| 17 x 17 \\| 30 / 30 "
                                          "\\| - \\|.*\\| PASSED \\|\n"));
   EXPECT_THAT(md, testing::ContainsRegex("\n\\| fabric-soft-x10 \\|.*\\| PASSED \\|\n"));
+  EXPECT_THAT(md, testing::ContainsRegex("\\| Newton [0-9]+ / [0-9]+ \\(PCG [0-9]+ a step\\) \\|"));
   EXPECT_THAT(md, HasSubstr("\nResult: PASSED (2 of 2 cells passed)\n"));
 
   const std::string csv = read_text(out / "stress.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
   EXPECT_EQ(csv.rfind("cell,axis,change,particles_i,particles_j,time_step_s,", 0), 0u);
   EXPECT_THAT(csv, HasSubstr("\ndt-1e-4,time step,dt = 0.0001 s,17,17,"));
+  EXPECT_THAT(csv, HasSubstr(",solver_method,cg_iterations,"));
+  EXPECT_THAT(csv, HasSubstr(",newton,"));
   fs::remove_all(out);
 }
 
