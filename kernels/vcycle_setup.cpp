@@ -189,7 +189,6 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
       const double* block = a.value.data() + 9 * blk;
       for (std::int64_t f = fine.p.start[j]; f < fine.p.start[j + 1]; ++f) {
         const std::int64_t c = fine.p.node[f];
-        const double w = wi * fine.p.weight[f];
         std::int64_t at = acc.slot_of[c];
         if (at < 0) {
           at = static_cast<std::int64_t>(acc.cols.size());
@@ -198,6 +197,7 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
           if (!pattern) acc.values.resize(acc.values.size() + 9, 0.0);
         }
         if (pattern) continue;  // the columns only
+        const double w = wi * fine.p.weight[f];
         double* out = acc.values.data() + 9 * at;
         for (int q = 0; q < 9; ++q) out[q] += w * block[q];
       }

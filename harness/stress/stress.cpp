@@ -50,9 +50,9 @@ std::string cell_line(const StressCellResult& r) {
                             ? " (above bound)"
                             : "")
           : std::string("-"),
-      r.mass_drift, r.method == "newton" ? "Newton" : "CG",
+      r.mass_drift, solver_name(r.method),
       static_cast<double>(r.cg_iterations) / std::max(1, r.steps_completed), r.max_step_iterations,
-      r.method == "newton"
+      solver_name(r.method) == "Newton"
           ? fmt::format(", PCG {:.0f}/step",
                         static_cast<double>(r.linear_iterations) / std::max(1, r.steps_completed))
           : std::string(),

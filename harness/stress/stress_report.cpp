@@ -110,23 +110,27 @@ json cell_json(const StressCellResult& r) {
       {"failures", r.failures}};
 }
 
+std::string solver_name(const std::string& method) {
+  if (method.empty()) return "";
+  return method == kernels::to_string(kernels::StepMethod::newton) ? "Newton" : "CG";
+}
+
 namespace {
 
-/// "Newton 4" / "nonlinear-cg 12": the mean iterations a step, named by the method that ran
-/// (documents written before the method was recorded show the number alone).
+/// "Newton 4" / "CG 12": the mean iterations a step, named by the method that ran (documents
+/// written before the method was recorded show the number alone).
 std::string solver_mean(const json& cg) {
   const std::string mean = shown(cg["per_step_mean"], "{:.0f}");
-  const std::string method = cg.value("method", std::string());
-  if (method.empty()) return mean;
-  return fmt::format("{} {}", method == "newton" ? "Newton" : "CG", mean);
+  const std::string name = solver_name(cg.value("method", std::string()));
+  return name.empty() ? mean : fmt::format("{} {}", name, mean);
 }
 
 /// The most iterations of one step; under Newton with its inner PCG iterations a step.
 std::string solver_max(const json& cg, int steps) {
   const std::string max = fmt::format("{}", cg["per_step_max"].get<int>());
-  if (cg.value("method", std::string()) != "newton" || steps <= 0) return max;
-  return fmt::format("{} (PCG {:.0f} a step)",
-                     max, cg.value("linear_iterations", std::int64_t{0}) / static_cast<double>(steps));
+  if (solver_name(cg.value("method", std::string())) != "Newton" || steps <= 0) return max;
+  return fmt::format("{} (PCG {:.0f} a step)", max,
+                     cg.value("linear_iterations", std::int64_t{0}) / static_cast<double>(steps));
 }
 
 }  // namespace
@@ -168,8 +172,8 @@ std::string stress_markdown(const json& document) {
                                      : "-",
         pen["surface"].is_number() ? fmt::format("{:.3f}", 1e3 * pen["surface"].get<double>())
                                    : "-",
-        trend_text(c["cost_trend"]), shown(c["mass_drift"], "{:.1e}"),
-        solver_mean(c["cg"]), solver_max(c["cg"], c["steps"]["completed"].get<int>()),
+        trend_text(c["cost_trend"]), shown(c["mass_drift"], "{:.1e}"), solver_mean(c["cg"]),
+        solver_max(c["cg"], c["steps"]["completed"].get<int>()),
         c["rejected_steps"].get<std::int64_t>(), c["unconverged_steps"].get<int>(),
         shown(c["seconds"]["wall"], "{:.1f}"), passed ? "PASSED" : "FAILED");
     for (const json& f : c["failures"]) {
@@ -181,7 +185,7 @@ std::string stress_markdown(const json& document) {
   // A report written before its first cell finished has nothing to pass or fail yet.
   const bool none_finished = summary["finished"].get<int>() == 0;
   out << fmt::format("\nResult: {} ({} of {} cells passed{})\n",
-                     none_finished                      ? "NONE FINISHED YET"
+                     none_finished                    ? "NONE FINISHED YET"
                      : document["passed"].get<bool>() ? "PASSED"
                                                       : "FAILED",
                      summary["passed"].get<int>(), summary["finished"].get<int>(),

@@ -48,8 +48,9 @@ TEST(SceneLoader, ElementKernelReadsAndTheVectorOneIsRefusedForTheViolationFormu
 }
 
 TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormulation) {
-  const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n"
-                           "gradient = \"numeric\"\n";
+  const std::string text =
+      "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n"
+      "gradient = \"numeric\"\n";
   EXPECT_EQ(parse_scene(text, "numeric.toml", kPresets).simulation.solver.gradient,
             GradientMode::numeric);
   try {
@@ -95,22 +96,25 @@ TEST(SceneLoader, SolverChoicesReadEveryNameAndDefaultToNewtonWithTheVcycle) {
                                    : "method = \"nonlinear-cg\"\n";
     const std::string text =
         "[cloth]\nparticles = [9, 9]\n[solver]\n" + method + "preconditioner = \"" + name + "\"\n";
-    const Preconditioner read = parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
+    const Preconditioner read =
+        parse_scene(text, "solver.toml", kPresets).simulation.solver.preconditioner;
     EXPECT_EQ(clothbench::kernels::to_string(read), name);
   }
   for (const std::string& name : clothbench::kernels::step_method_names()) {
     const std::string text = "[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"" + name +
                              "\"\nmax_newton_iterations = 7\nmax_linear_iterations = 11\n";
-    const kernels::SolverConfig solver = parse_scene(text, "solver.toml", kPresets).simulation.solver;
+    const kernels::SolverConfig solver =
+        parse_scene(text, "solver.toml", kPresets).simulation.solver;
     EXPECT_EQ(clothbench::kernels::to_string(solver.method), name);
     EXPECT_EQ(solver.max_newton_iterations, 7);
     EXPECT_EQ(solver.max_linear_iterations, 11);
   }
   const kernels::SolverConfig smoothing =
-      parse_scene("[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"newton\"\n"
-                  "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\nmodel_refinements = 2\n"
-                  "preconditioner = \"v-cycle\"\ncoarsest_nodes = 40\n",
-                  "solver.toml", kPresets)
+      parse_scene(
+          "[cloth]\nparticles = [9, 9]\n[solver]\nmethod = \"newton\"\n"
+          "smoothing_sweeps = 4\nsmoothing_threshold = 0.5\nmodel_refinements = 2\n"
+          "preconditioner = \"v-cycle\"\ncoarsest_nodes = 40\n",
+          "solver.toml", kPresets)
           .simulation.solver;
   EXPECT_EQ(smoothing.smoothing_sweeps, 4);
   EXPECT_EQ(smoothing.smoothing_threshold, 0.5);
@@ -233,8 +237,10 @@ TEST(SceneLoader, SolverCombinationsTheKernelCannotRunAreLocatedAtTheSettingGive
     // The kernel refuses the same configuration (one check, kernels::validate).
     kernels::SimulationConfig config;
     config.solver.formulation = kernels::Formulation::violation;
-    if (c.line.rfind("method", 0) == 0) config.solver.method = kernels::StepMethod::newton;
-    else config.solver.preconditioner = kernels::Preconditioner::line_solves;
+    if (c.line.rfind("method", 0) == 0)
+      config.solver.method = kernels::StepMethod::newton;
+    else
+      config.solver.preconditioner = kernels::Preconditioner::line_solves;
     EXPECT_THROW(kernels::Simulation simulation(config), std::invalid_argument);
   }
 }
