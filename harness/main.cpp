@@ -2,7 +2,7 @@
 //   clothbench run SCENE [options]   one verified simulation (harness/run/run_scene.hpp)
 //   clothbench check SCENE           validate a scene file and print what it configures
 //   clothbench info [--json]         the machine context (harness/machine)
-//   clothbench sweep SCENE [options] schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
+//   clothbench sweep SCENE|--class C  schedulers x threads grid: Table 2, Fig. 12 (harness/sweep)
 //   clothbench stress [options]      the stress matrix, PASSED/FAILED per cell (harness/stress)
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 //   clothbench compare A.json B.json two sweeps row by row, with a U test (harness/compare)
@@ -26,15 +26,16 @@
 #include <iostream>
 
 #include "harness/compare/compare_command.hpp"
+#include "harness/experiment/experiment.hpp"
 #include "harness/machine/machine_context.hpp"
 #include "harness/predict/predict_command.hpp"
 #include "harness/report/sweep_table.hpp"
-#include "harness/experiment/experiment.hpp"
-#include "harness/run/run_scene.hpp"
 #include "harness/run/disturbance.hpp"
+#include "harness/run/run_scene.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/stress/stress_command.hpp"
+#include "harness/sweep/size_class.hpp"
 #include "harness/sweep/sweep.hpp"
 
 namespace {
@@ -161,7 +162,14 @@ int main(int argc, char** argv) {
   bool sweep_no_plots = false;
   auto* sweep_command = app.add_subcommand(
       "sweep", "Run every scheduler x thread count, write Table 2, Fig. 12 and the JSON record");
-  sweep_command->add_option("SCENE", sweep.scene_file, "Scene file (TOML)")->required();
+  auto* sweep_scene_option =
+      sweep_command->add_option("SCENE", sweep.scene_file, "Scene file (TOML); or --class");
+  std::string sweep_class;
+  auto* sweep_class_option = sweep_command->add_option(
+      "--class", sweep_class,
+      "Size class instead of SCENE, as in the NAS benchmarks: S (the default job's drape), W "
+      "(a 101^2 cloth on the box), A (the paper's box at 1001^2), B (the box at 2001^2); sets "
+      "the scene, --repeat and --warmup-steps (see README, Size classes)");
   sweep_command
       ->add_option("--schedulers", sweep_schedulers,
                    "Comma-separated scheduler specs (see `run --scheduler`)")
@@ -171,13 +179,16 @@ int main(int argc, char** argv) {
                             "cores, and the cores)");
   sweep_command->add_flag("--oversubscribe", sweep.allow_oversubscribe,
                           "Allow thread counts above the hardware threads (rows are marked)");
-  sweep_command->add_option("--repeat", sweep.repeat, "Measured runs per row and timing level")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
-  sweep_command->add_option("--warmup-steps", sweep.warmup_steps,
-                            "Steps of the uncounted warm-up run of each row (0: none)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, INT_MAX));
+  auto* sweep_repeat_option =
+      sweep_command->add_option("--repeat", sweep.repeat, "Measured runs per row and timing level")
+          ->capture_default_str()
+          ->check(CLI::Range(1, 1000));
+  auto* sweep_warmup_option =
+      sweep_command
+          ->add_option("--warmup-steps", sweep.warmup_steps,
+                       "Steps of the uncounted warm-up run of each row (0: none)")
+          ->capture_default_str()
+          ->check(CLI::Range(0, INT_MAX));
   auto* sweep_steps_option =
       sweep_command->add_option("--steps", sweep_steps, "Override the scene's step count")
           ->check(CLI::Range(1, INT_MAX));
@@ -312,6 +323,13 @@ int main(int argc, char** argv) {
         return 1;
       }
       try {
+        if (*sweep_class_option) {
+          clothbench::harness::apply_size_class(
+              clothbench::harness::find_size_class(sweep_class), sweep_scene_option->count() > 0,
+              sweep_repeat_option->count() > 0, sweep_warmup_option->count() > 0, sweep);
+        } else if (!*sweep_scene_option) {
+          throw std::invalid_argument("SCENE: a scene file or --class S|W|A|B is required");
+        }
         sweep.schedulers = clothbench::harness::split_list(sweep_schedulers, "--schedulers");
         if (!sweep_threads.empty()) {
           sweep.threads = clothbench::harness::parse_thread_list(sweep_threads, "--threads");

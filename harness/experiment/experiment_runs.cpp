@@ -62,10 +62,6 @@ SurfaceError surface_error(const SurfaceSample& surface, const SurfaceSample& re
   return error;
 }
 
-std::filesystem::path scenario_directory() {
-  return default_presets_file().parent_path().parent_path();
-}
-
 Scene load_experiment_scene(const std::filesystem::path& file) {
   return load_scene(file, default_presets_file());
 }

@@ -93,7 +93,4 @@ std::vector<std::size_t> pareto_front(const std::vector<double>& time,
 /// A number for a Markdown cell: `digits` significant digits, or "-" when not finite.
 std::string cell(double value, int digits = 4);
 
-/// The shipped scenario directory (next to the presets file).
-std::filesystem::path scenario_directory();
-
 }  // namespace clothbench::harness

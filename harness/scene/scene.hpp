@@ -57,6 +57,9 @@ Scene parse_scene(std::string_view source_text, const std::filesystem::path& fil
 /// <source dir>/scenarios/presets/fabrics.toml.
 std::filesystem::path default_presets_file();
 
+/// The shipped scenario directory (next to the presets file).
+std::filesystem::path scenario_directory();
+
 /// Names of the presets in a presets file, sorted. Throws SceneError.
 std::vector<std::string> fabric_preset_names(const std::filesystem::path& presets_file);
 

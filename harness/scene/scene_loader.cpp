@@ -438,6 +438,10 @@ std::filesystem::path default_presets_file() {
   return std::filesystem::path(CLOTHBENCH_SOURCE_DIR) / "scenarios" / "presets" / "fabrics.toml";
 }
 
+std::filesystem::path scenario_directory() {
+  return default_presets_file().parent_path().parent_path();
+}
+
 Scene parse_scene(std::string_view source_text, const std::filesystem::path& file,
                   const std::filesystem::path& presets_file) {
   const std::string file_name = file.string();

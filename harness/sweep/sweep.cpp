@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <string>
 
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
@@ -178,11 +179,12 @@ int run_sweep(const SweepOptions& options) {
 
   // The reference: the first scheduler on 1 thread, uninstrumented and uncounted.
   if (!options.quiet) {
-    fmt::print("clothbench sweep: {} ({}), {} steps, {} schedulers x {} thread counts, "
-               "repeat {} (retries {}), OMP_WAIT_POLICY {}, instrument {}, bind {}\n",
-               scene.name, scene.file.string(), scene.steps, grid.size(), threads.size(),
-               options.repeat, options.retries, omp_wait_policy(),
-               to_string(options.instrument), to_string(options.bind));
+    fmt::print(
+        "clothbench sweep: {}{} ({}), {} steps, {} schedulers x {} thread counts, "
+        "repeat {} (retries {}), OMP_WAIT_POLICY {}, instrument {}, bind {}\n",
+        options.size_class ? "class " + *options.size_class + ": " : std::string(), scene.name,
+        scene.file.string(), scene.steps, grid.size(), threads.size(), options.repeat,
+        options.retries, omp_wait_policy(), to_string(options.instrument), to_string(options.bind));
     std::fflush(stdout);
   }
   // From here on Ctrl-C / SIGTERM stop the sweep after the run in progress (stop_request.hpp).

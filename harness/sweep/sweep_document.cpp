@@ -208,7 +208,8 @@ json settings_json(const SweepOptions& options, const std::vector<int>& threads,
           {"bind", to_string(options.bind)},
           {"retries", options.retries},
           {"omp_wait_policy", omp_wait_policy()},
-          {"oversubscribe", options.allow_oversubscribe}};
+          {"oversubscribe", options.allow_oversubscribe},
+          {"size_class", options.size_class ? json(*options.size_class) : json(nullptr)}};
 }
 
 bool has_row(const json& document, const RowKey& key) {

@@ -25,6 +25,7 @@ inline constexpr std::string_view kPaperSchedulers =
 /// Everything a sweep needs, as given on the command line.
 struct SweepOptions {
   std::filesystem::path scene_file;
+  std::optional<std::string> size_class;  ///< --class S|W|A|B (size_class.hpp), if given
   std::vector<std::string> schedulers;  ///< specs as given, e.g. "dynamic:2"; order is kept
   std::vector<int> threads;             ///< empty = default_thread_counts()
   int repeat = 3;                       ///< measured repetitions per row and timing level

@@ -147,6 +147,16 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
   EXPECT_TRUE(lines->at("passed").get<bool>());
   EXPECT_LT(lines->at("cg_iterations").get<std::int64_t>(),
             paper->at("cg_iterations").get<std::int64_t>());
+  // Longer time steps over the same simulated time: a half and a quarter of the base's steps.
+  for (const int factor : {2, 4}) {
+    const json* longer = find_run(runs, "dt-x" + std::to_string(factor));
+    ASSERT_NE(longer, nullptr) << factor;
+    EXPECT_TRUE(longer->at("passed").get<bool>()) << factor;
+    EXPECT_EQ(longer->at("steps").get<std::int64_t>() * factor,
+              base->at("steps").get<std::int64_t>())
+        << factor;
+    EXPECT_TRUE(longer->at("error_rms_m").is_number()) << factor;
+  }
   if (std::system("gnuplot --version > /dev/null 2>&1") == 0) {
     EXPECT_TRUE(fs::exists(dir / "time_error.png"));
     EXPECT_NE(read_text(dir / "time_error.gp").find("title 'Pareto front'"), std::string::npos);

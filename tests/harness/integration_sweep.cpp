@@ -460,6 +460,45 @@ TEST_F(SweepBinary, BadInputExitsWithCodeTwoAndSaysWhy) {
 
   const Outcome bad_format = run("table x.json --format html");
   EXPECT_EQ(bad_format.exit_code, 2) << bad_format.output;
+
+  const Outcome no_scene = run("sweep" + out);
+  EXPECT_EQ(no_scene.exit_code, 2) << no_scene.output;
+  EXPECT_NE(no_scene.output.find("--class"), std::string::npos) << no_scene.output;
+
+  const Outcome bad_class = run("sweep --class Q" + out);
+  EXPECT_EQ(bad_class.exit_code, 2) << bad_class.output;
+  EXPECT_NE(bad_class.output.find("--class: unknown size class 'Q'"), std::string::npos)
+      << bad_class.output;
+
+  const Outcome both = run("sweep " + quote(kScene.string()) + " --class S" + out);
+  EXPECT_EQ(both.exit_code, 2) << both.output;
+  EXPECT_NE(both.output.find("either SCENE or --class"), std::string::npos) << both.output;
+}
+
+// --class picks the class's scene and its settings where the command line gives none, and the
+// record says which class ran.
+TEST_F(SweepBinary, SizeClassPicksItsSceneAndSettingsAndIsRecorded) {
+  const fs::path out = fresh_dir("class-s");
+  const Outcome o =
+      run("sweep --class S --steps 1 --threads 1 --schedulers static --repeat 1 "
+          "--retries 0 --no-plots --quiet --out " +
+          quote(out.string()));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = read_json(out / "sweep.json");
+  EXPECT_EQ(d["settings"]["size_class"], "S");
+  EXPECT_EQ(d["settings"]["repeat"], 1);        // given: the command line wins
+  EXPECT_EQ(d["settings"]["warmup_steps"], 2);  // not given: the class's
+  EXPECT_EQ(fs::path(d["scene"]["file"].get<std::string>()).filename(), "box-49-drape.toml");
+  EXPECT_TRUE(d["complete"].get<bool>());
+
+  const fs::path plain = fresh_dir("class-none");
+  const Outcome p = run("sweep " + quote(kScene.string()) +
+                        " --steps 1 --threads 1 "
+                        "--schedulers static --repeat 1 --warmup-steps 0 --retries 0 --no-plots "
+                        "--quiet --out " +
+                        quote(plain.string()));
+  ASSERT_EQ(p.exit_code, 0) << p.output;
+  EXPECT_TRUE(read_json(plain / "sweep.json")["settings"]["size_class"].is_null());
 }
 
 }  // namespace
