@@ -409,4 +409,19 @@ SurfaceMesh surface_mesh(const kernels::Simulation& simulation) {
   return out;
 }
 
+std::string solver_name(const std::string& method) {
+  if (method.empty()) return "";
+  return method == kernels::to_string(kernels::StepMethod::newton) ? "Newton" : "CG";
+}
+
+std::string solver_iterations(const RunSummary& summary) {
+  const std::string name = solver_name(summary.method);
+  if (name == "Newton") {
+    return fmt::format("Newton {} (PCG {})", summary.total_iterations,
+                       summary.total_linear_iterations);
+  }
+  return name.empty() ? std::to_string(summary.total_iterations)
+                      : fmt::format("{} {}", name, summary.total_iterations);
+}
+
 }  // namespace clothbench::harness

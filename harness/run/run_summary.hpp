@@ -114,4 +114,10 @@ int resolve_threads(int requested, bool allow_oversubscribe, const char* flag);
 /// scene file) when it exceeds 90 % of this machine's memory.
 std::uint64_t check_memory(const Scene& scene);
 
+/// How the reports name a run's step solver ("Newton", "CG"; "" for a record without one).
+std::string solver_name(const std::string& method);
+
+/// A run's solver iterations for a table cell: "Newton 392 (PCG 731)" or "CG 47904".
+std::string solver_iterations(const RunSummary& summary);
+
 }  // namespace clothbench::harness

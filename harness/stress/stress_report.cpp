@@ -110,11 +110,6 @@ json cell_json(const StressCellResult& r) {
       {"failures", r.failures}};
 }
 
-std::string solver_name(const std::string& method) {
-  if (method.empty()) return "";
-  return method == kernels::to_string(kernels::StepMethod::newton) ? "Newton" : "CG";
-}
-
 namespace {
 
 /// "Newton 4" / "CG 12": the mean iterations a step, named by the method that ran (documents

@@ -12,14 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "harness/run/run_summary.hpp"  // solver_name
 #include "harness/stress/stress_cell.hpp"
 
 namespace clothbench::harness {
 
 inline constexpr int kStressSchemaVersion = 1;
-
-/// How the reports name a cell's step solver ("Newton", "CG"; "" for a record without one).
-std::string solver_name(const std::string& method);
 
 /// One cell's record (the "cells" entries of stress.json).
 nlohmann::json cell_json(const StressCellResult& result);

@@ -162,8 +162,17 @@ TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
     EXPECT_NE(read_text(dir / "time_error.gp").find("title 'Pareto front'"), std::string::npos);
   }
   const std::string md = read_text(dir / "time_error.md");
-  EXPECT_NE(md.find("| Rejected steps | Pareto |"), std::string::npos);
+  EXPECT_NE(md.find("| Solver iterations | Rejected steps | Pareto |"), std::string::npos);
   EXPECT_NE(md.find("| * |"), std::string::npos);
+  // Each row names the solver its iterations belong to.
+  EXPECT_NE(md.find("| Newton " + std::to_string(base->at("cg_iterations").get<std::int64_t>()) +
+                    " (PCG "),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| CG " + std::to_string(paper->at("cg_iterations").get<std::int64_t>()) +
+                    " |"),
+            std::string::npos)
+      << md;
 }
 
 TEST(ExperimentBinary, Table2IsTheBoxSweep) {
