@@ -14,6 +14,7 @@
 #include <xsimd/xsimd.hpp>
 
 #include "kernels/vector/element_lanes.hpp"
+#include "kernels/vector/particle_lanes_impl.hpp"
 
 namespace clothbench::kernels::vector {
 namespace {
@@ -265,7 +266,8 @@ struct Lanes {
 /// The kernels of `Arch` as an ElementLanesKernels row.
 template <class Arch>
 ElementLanesKernels lanes_kernels(const char* isa) {
-  return ElementLanesKernels{isa, Lanes<Arch>::kWidth, &Lanes<Arch>::edges, &Lanes<Arch>::triples};
+  return ElementLanesKernels{isa, Lanes<Arch>::kWidth, &Lanes<Arch>::edges, &Lanes<Arch>::triples,
+                             &ParticleLanes<Arch>::particles};
 }
 
 }  // namespace
