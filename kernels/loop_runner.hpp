@@ -161,11 +161,11 @@ class LoopRunner {
         [&](std::int64_t id, NoReduction&, const auto& context) { body(id, context); }, site);
   }
 
-  /// Calls tile_body(ids, count, acc) once per tile that has live elements of `kind`, with
+  /// Calls tile_body(tile, ids, count, acc) once per tile that has live elements of `kind`, with
   /// the tile's live element ids in storage order (exactly the ids for_each visits, grouped by
   /// tile: a tile is never split between calls, whatever the scheduler or thread count).
   /// acc is a fresh Acc per tile, stored as that tile's partial when `partials` is not null.
-  /// For kernels that batch a tile's elements into vector lanes (kernels/vector_elements.hpp):
+  /// For kernels that batch a tile's elements into vector lanes (kernels/vector/element_lanes.hpp):
   /// lane groups formed from `ids` are fixed per tile, so results do not depend on the split.
   template <class Acc, class TileBody>
   void for_each_tile(ElementKind kind, TilePartials<Acc>* partials, TileBody&& tile_body,
@@ -193,7 +193,9 @@ class LoopRunner {
                          }
                        }
                        Acc acc{};
-                       if (!ids.empty()) tile_body(ids.data(), static_cast<std::int64_t>(ids.size()), acc);
+                       if (!ids.empty()) {
+                         tile_body(t, ids.data(), static_cast<std::int64_t>(ids.size()), acc);
+                       }
                        if (out != nullptr) out[t] = acc;
                        live += static_cast<std::int64_t>(ids.size());
                      }
@@ -205,7 +207,7 @@ class LoopRunner {
     const ElementList& list = lists_->of(kind);
     list_tiles(list, kind_code, site, [&](std::int64_t t, std::int64_t first, std::int64_t end) {
       Acc acc{};
-      tile_body(list.entries.data() + first, end - first, acc);
+      tile_body(t, list.entries.data() + first, end - first, acc);
       if (out != nullptr) out[t] = acc;
     });
   }

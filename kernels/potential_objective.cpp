@@ -276,38 +276,42 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
     acc.contact_skipped += c.skipped;
     return c.mask;
   };
-  run.for_each_prepared<GatherSums>(
-      ElementKind::particles, &gather_partials_, prepare,
-      [&](std::int64_t s, GatherSums& acc, ObstacleMask mask) {
-        auto g = vec3(st.gradient, s);
-        if (!ctx_.is_free(s)) {
-          g.setZero();
-          return;
-        }
-        const double m = mesh.mass[s];
-        const Eigen::Vector3d xs = x(s);
-        const Eigen::Vector3d offset = xs - vec3(st.target, s);
-        const ContactPenalty contact = contact_penalty(ctx_, s, xs, mask);
-        if (!broad_phase) acc.contact_tested += obstacles;
-        acc.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
-                      m * gravity.dot(xs - vec3(st.step_start, s)) + contact.energy;
-        g = numeric ? numeric_gradient(s)
-                    : Eigen::Vector3d(own_gradient(s, xs, contact) +
-                                      gather_elastic_gradient(mesh, st, s, x));
-        if (ctx_.is_forced(s)) {  // the scripted force f: -f . (x - x^n) in Phi
-          const Eigen::Vector3d f = ctx_.external_force(s);
-          acc.energy -= f.dot(xs - vec3(st.step_start, s));
-          if (!numeric) g -= f;
-        }
-        const Eigen::Vector3d z = apply_symmetric(st.preconditioner, s, g);
-        const double ratio = g.norm() / (m * g_ref);
-        acc.residual_sq += ratio * ratio;
-        acc.residual_max = std::max(acc.residual_max, ratio);
-        acc.slope += g.dot(vec3(st.direction, s));
-        acc.grad_dot_z += g.dot(z);
-        acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
-        acc.free_particles += 1;
-      });
+  if (ctx_.config.solver.kernel == ElementKernel::vector && !numeric) {
+    evaluate_particles_vector(run, prepare);
+  } else {
+    run.for_each_prepared<GatherSums>(
+        ElementKind::particles, &gather_partials_, prepare,
+        [&](std::int64_t s, GatherSums& acc, ObstacleMask mask) {
+          auto g = vec3(st.gradient, s);
+          if (!ctx_.is_free(s)) {
+            g.setZero();
+            return;
+          }
+          const double m = mesh.mass[s];
+          const Eigen::Vector3d xs = x(s);
+          const Eigen::Vector3d offset = xs - vec3(st.target, s);
+          const ContactPenalty contact = contact_penalty(ctx_, s, xs, mask);
+          if (!broad_phase) acc.contact_tested += obstacles;
+          acc.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
+                        m * gravity.dot(xs - vec3(st.step_start, s)) + contact.energy;
+          g = numeric ? numeric_gradient(s)
+                      : Eigen::Vector3d(own_gradient(s, xs, contact) +
+                                        gather_elastic_gradient(mesh, st, s, x));
+          if (ctx_.is_forced(s)) {  // the scripted force f: -f . (x - x^n) in Phi
+            const Eigen::Vector3d f = ctx_.external_force(s);
+            acc.energy -= f.dot(xs - vec3(st.step_start, s));
+            if (!numeric) g -= f;
+          }
+          const Eigen::Vector3d z = apply_symmetric(st.preconditioner, s, g);
+          const double ratio = g.norm() / (m * g_ref);
+          acc.residual_sq += ratio * ratio;
+          acc.residual_max = std::max(acc.residual_max, ratio);
+          acc.slope += g.dot(vec3(st.direction, s));
+          acc.grad_dot_z += g.dot(z);
+          acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
+          acc.free_particles += 1;
+        });
+  }
   const double edges = run.reduce(edge_partials_).value;
   const double triples = run.reduce(triple_partials_).value;
   const GatherSums p = run.reduce(gather_partials_);
@@ -334,13 +338,65 @@ void PotentialObjective::evaluate_elements_vector(LoopRunner& run) {
   const vector::TripleLanesArgs triples = vector::triple_lanes_args(mesh, st, ctx_.material);
   run.for_each_tile<ScalarSum>(
       ElementKind::edges, &edge_partials_,
-      [&](const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
+      [&](std::int64_t, const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
         acc.value += lanes.edges(edges, ids, count);
       });
   run.for_each_tile<ScalarSum>(
       ElementKind::triples, &triple_partials_,
-      [&](const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
+      [&](std::int64_t, const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
         acc.value += lanes.triples(triples, ids, count);
+      });
+}
+
+template <class Prepare>
+void PotentialObjective::evaluate_particles_vector(LoopRunner& run, Prepare& prepare) {
+  ClothState& st = ctx_.state;
+  const ClothMesh& mesh = ctx_.mesh;
+  const vector::ElementLanesKernels& lanes = vector::element_lanes_kernels();
+  const vector::ParticleLanesArgs args = vector::particle_lanes_args(
+      mesh, st, ctx_.config.time.gravity, ctx_.gravity_reference(), ctx_.dt());
+  auto x = [&](std::int64_t k) { return vec3(st.position, k); };
+  const bool broad_phase = ctx_.broad_phase();
+  const auto obstacles = static_cast<std::int64_t>(ctx_.obstacles.size());
+  const bool ghosts = mesh.ghost_count() > 0;
+  const bool forced = !st.external_forces.empty();
+  run.for_each_tile<GatherSums>(
+      ElementKind::particles, &gather_partials_,
+      [&](std::int64_t tile, const std::int32_t* slots, std::int64_t count, GatherSums& acc) {
+        const ObstacleMask mask = prepare(tile, acc);
+        // The terms that stay scalar (ParticleLanesKernels::particles' `extra`), per position.
+        thread_local std::vector<double> extra;
+        const bool scalar_terms = (mask != 0 && obstacles > 0) || ghosts || forced;
+        if (scalar_terms) extra.assign(4 * static_cast<std::size_t>(count), 0.0);
+        for (std::int64_t q = 0; q < (scalar_terms ? count : 0); ++q) {
+          const std::int64_t s = slots[q];
+          if (!ctx_.is_free(s)) continue;
+          Eigen::Map<Eigen::Vector3d> g(&extra[4 * q]);
+          double& energy = extra[4 * q + 3];
+          if (mask != 0) {
+            const ContactPenalty contact = contact_penalty(ctx_, s, x(s), mask);
+            g = contact.gradient;
+            energy = contact.energy;
+          }
+          if (ctx_.is_forced(s)) {
+            const Eigen::Vector3d f = ctx_.external_force(s);
+            g -= f;
+            energy -= f.dot(x(s) - vec3(st.step_start, s));
+          }
+          for_each_ghost_child(mesh, s, [&](std::int64_t child) {
+            g += 0.5 * gather_elastic_gradient(mesh, st, child, x);
+          });
+        }
+        const vector::ParticleLanesSums sums =
+            lanes.particles(args, slots, scalar_terms ? extra.data() : nullptr, count);
+        for (std::int64_t q = 0; q < count; ++q) acc.free_particles += ctx_.is_free(slots[q]);
+        if (!broad_phase) acc.contact_tested += obstacles * acc.free_particles;
+        acc.energy += sums.energy;
+        acc.residual_sq += sums.residual_sq;
+        acc.residual_max = std::max(acc.residual_max, sums.residual_max);
+        acc.slope += sums.slope;
+        acc.grad_dot_z += sums.grad_dot_z;
+        acc.grad_old_dot_z += sums.grad_old_dot_z;
       });
 }
 

@@ -95,6 +95,11 @@ class PotentialObjective final : public StepObjective {
   /// The edge and triple loops of evaluate() by the vector twin (ElementKernel::vector):
   /// each tile's elements in SIMD lanes, writing the same scratch slots and tile partials.
   void evaluate_elements_vector(LoopRunner& run);
+  /// The particle loop of evaluate() by the vector twin (analytic gradient): per tile, the
+  /// terms that stay scalar (contact with the obstacles `prepare` leaves in the tile's mask,
+  /// scripted forces, ghost children), then the gather and the sums in SIMD lanes.
+  template <class Prepare>
+  void evaluate_particles_vector(LoopRunner& run, Prepare& prepare);
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;

@@ -47,4 +47,33 @@ inline TripleLanesArgs triple_lanes_args(const ClothMesh& mesh, ClothState& stat
   return args;
 }
 
+static_assert(kLanesActive == kParticleActive && kLanesPinned == kParticlePinned);
+
+/// Particle loop arguments: reads positions, the CG vectors, the preconditioner and the
+/// element loops' scratch; writes state.gradient. `dt`: the sub-step's length (s);
+/// `gravity_reference`: the residual's weight scale (StepContext::gravity_reference, m/s^2).
+inline ParticleLanesArgs particle_lanes_args(const ClothMesh& mesh, ClothState& state,
+                                             const Eigen::Vector3d& gravity,
+                                             double gravity_reference, double dt) {
+  ParticleLanesArgs args{state.position.data(),
+                         state.target.data(),
+                         state.step_start.data(),
+                         state.direction.data(),
+                         state.gradient_old.data(),
+                         state.preconditioner.data(),
+                         mesh.mass.data(),
+                         mesh.flags.data(),
+                         mesh.next.data(),
+                         mesh.prev.data(),
+                         mesh.edge_active.data(),
+                         mesh.triple_active.data(),
+                         state.edge_scratch.data(),
+                         state.triple_scratch.data(),
+                         state.gradient.data(),
+                         dt * dt,
+                         {gravity.x(), gravity.y(), gravity.z()},
+                         gravity_reference};
+  return args;
+}
+
 }  // namespace clothbench::kernels::vector

@@ -52,6 +52,38 @@ struct TripleLanesArgs {
   RampSeries ramp;
 };
 
+/// ParticleFlag bits (cloth_mesh.hpp) the particle kernel reads; checked equal there.
+inline constexpr std::uint8_t kLanesActive = 1, kLanesPinned = 4;
+
+/// One evaluation's inputs and outputs of the particle loop (the gather): arrays of ClothMesh
+/// and ClothState, the scratch the element loops wrote, and the step's constants.
+struct ParticleLanesArgs {
+  const double* position;       ///< xyz per slot
+  const double* target;         ///< x~, xyz per slot
+  const double* step_start;     ///< x^n, xyz per slot
+  const double* direction;      ///< xyz per slot
+  const double* gradient_old;   ///< xyz per slot
+  const float* preconditioner;  ///< 6 per slot: symmetric inverse block (xx xy xz yy yz zz)
+  const double* mass;           ///< per slot, kg
+  const std::uint8_t* flags;    ///< per slot: ParticleFlag bits (free = active, not pinned)
+  const std::int32_t* next;     ///< per element id
+  const std::int32_t* prev;     ///< per element id
+  const std::uint8_t* edge_active;
+  const std::uint8_t* triple_active;
+  const double* edge_scratch;    ///< per element id: w t / l
+  const double* triple_scratch;  ///< 3 per element id: w M (A, Bc, C)
+  double* gradient;              ///< out, xyz per slot
+  double dt_squared;             ///< s^2
+  double gravity[3];             ///< m/s^2
+  double gravity_reference;      ///< |g|, m/s^2
+};
+
+/// The reductions of one tile (GatherSums of step_objective.hpp without the contact counts).
+struct ParticleLanesSums {
+  double energy = 0.0, residual_sq = 0.0, residual_max = 0.0, slope = 0.0;
+  double grad_dot_z = 0.0, grad_old_dot_z = 0.0;
+};
+
 /// The kernels of one instruction set. Each evaluates the elements `ids[0..count)` of one tile
 /// in lane groups of `lanes` consecutive ids (the last group padded with copies of the last id,
 /// whose results are dropped), writes each element's scratch slots, and returns the sum of
@@ -61,6 +93,14 @@ struct ElementLanesKernels {
   int lanes;        ///< doubles per vector
   double (*edges)(const EdgeLanesArgs& args, const std::int32_t* ids, std::int64_t count);
   double (*triples)(const TripleLanesArgs& args, const std::int32_t* ids, std::int64_t count);
+  /// The particle loop over `slots[0..count)` (the active particles of one tile): writes each
+  /// gradient (zero for a particle that is not free) and sums the free particles' terms in slot
+  /// order. `extra` (or null: none): the terms that stay
+  /// scalar, 4 per position, computed by the caller for the free particles: gradient xyz
+  /// (contact penalty, minus the scripted force, plus half of what each ghost child gathers)
+  /// and energy (contact, minus f . (x - x^n)).
+  ParticleLanesSums (*particles)(const ParticleLanesArgs& args, const std::int32_t* slots,
+                                 const double* extra, std::int64_t count);
 };
 
 /// The best kernels this CPU runs (chosen once, at first call, from CPUID).

@@ -14,6 +14,7 @@
 #include <xsimd/xsimd.hpp>
 
 #include "kernels/vector/element_lanes.hpp"
+#include "kernels/vector/particle_lanes_impl.hpp"
 
 namespace clothbench::kernels::vector {
 namespace {
@@ -86,11 +87,15 @@ struct Lanes {
   struct Tensile {
     V fm, emt, p, q;
   };
+  /// power_integral(eps, exponent) of TensileBand for eps >= EMT (its linear continuation).
+  static V tensile_linear_integral(const Tensile& t, const V& eps, const V& exponent) {
+    const V beyond = eps - t.emt;
+    return t.fm * t.emt / (exponent + V(1.0)) + t.fm * beyond +
+           V(0.5) * t.fm * t.p / t.emt * beyond * beyond;
+  }
   /// power_integral(eps, exponent) of TensileBand.
   static V tensile_integral(const Tensile& t, const V& eps, const V& exponent) {
-    const V beyond = eps - t.emt;
-    const V linear = t.fm * t.emt / (exponent + V(1.0)) + t.fm * beyond +
-                     V(0.5) * t.fm * t.p / t.emt * beyond * beyond;
+    const V linear = tensile_linear_integral(t, eps, exponent);
     const V power = t.fm * xsimd::pow(eps / t.emt, exponent) * eps / (exponent + V(1.0));
     return xsimd::select(eps > V(0.0), xsimd::select(eps >= t.emt, linear, power), V(0.0));
   }
@@ -132,10 +137,11 @@ struct Lanes {
       const V lower_power = t.fm * xsimd::exp(t.q * log_ratio);
       const V upper = xsimd::select(beyond, linear, upper_power);
       const V lower = xsimd::select(beyond, linear, lower_power);
-      // loading branch
+      // loading branch (below EMT from the curve's value: no pow; a lane without positive
+      // strain is zeroed by return_map)
       const V loading_potential =
           xsimd::select(strain < t.emt, upper * strain / (t.p + V(1.0)),
-                        tensile_integral(t, strain, t.p));
+                        tensile_linear_integral(t, strain, t.p));
       const Mapped mapped = return_map(positive, prev, upper, lower, loading_potential, [&] {
         // plateau or unloading: the breakpoints of the previous force
         const V lower_bp = tensile_inverse(t, prev, t.p);
@@ -265,7 +271,8 @@ struct Lanes {
 /// The kernels of `Arch` as an ElementLanesKernels row.
 template <class Arch>
 ElementLanesKernels lanes_kernels(const char* isa) {
-  return ElementLanesKernels{isa, Lanes<Arch>::kWidth, &Lanes<Arch>::edges, &Lanes<Arch>::triples};
+  return ElementLanesKernels{isa, Lanes<Arch>::kWidth, &Lanes<Arch>::edges, &Lanes<Arch>::triples,
+                             &ParticleLanes<Arch>::particles};
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 
 #include "kernel_fixtures.hpp"
 #include "kernels/element_geometry.hpp"
+#include "kernels/potential_elements.hpp"
 #include "kernels/vector_lanes_args.hpp"
 
 namespace clothbench {
@@ -44,9 +45,11 @@ std::vector<std::vector<std::int32_t>> tiles_of(const ClothMesh& mesh, ElementKi
   std::vector<std::vector<std::int32_t>> tiles;
   for (std::int64_t t = 0; t < mesh.tile_count(); ++t) {
     std::vector<std::int32_t> ids;
+    const int per_slot = kind == ElementKind::particles ? 1 : 2;
     for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1]; ++s) {
-      for (int d = 0; d < 2; ++d) {
-        if (kernels::element_is_live(mesh, kind, 2 * s + d)) ids.push_back(static_cast<std::int32_t>(2 * s + d));
+      for (int d = 0; d < per_slot; ++d) {
+        const std::int64_t id = per_slot * s + d;
+        if (kernels::element_is_live(mesh, kind, id)) ids.push_back(static_cast<std::int32_t>(id));
       }
     }
     tiles.push_back(ids);
@@ -130,6 +133,98 @@ double relative_difference(double a, double b, double scale) {
   return denominator > 0.0 ? std::abs(a - b) / denominator : std::abs(a - b);
 }
 
+/// Gives the minimiser's vectors and the preconditioner random values (the particle loop's
+/// sums read them; a fresh simulation holds zeros).
+void randomise_solver_vectors(kernels::Simulation& sim, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  kernels::ClothState& st = sim.state();
+  for (double& v : st.direction) v = 0.01 * unit(rng);
+  for (double& v : st.gradient_old) v = 0.01 * unit(rng);
+  for (float& v : st.preconditioner) v = static_cast<float>(1e-3 * unit(rng));
+}
+
+/// Every ISA's particle kernel on the scratch of `ref` (after its evaluate()), with random
+/// scalar terms `extra`, against the reference's formulas: gradient per particle (zero unless
+/// free) and each tile's sums.
+void compare_particles(kernels::Simulation& ref, const std::string& what) {
+  const ClothMesh& mesh = ref.mesh();
+  kernels::ClothState& st = ref.state();
+  const double dt = ref.config().time.step, g_ref = ref.config().time.gravity.norm();
+  const Eigen::Vector3d gravity = ref.config().time.gravity;
+  auto x = [&](std::int64_t k) { return kernels::vec3(st.position, k); };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<double> extra(4 * static_cast<std::size_t>(mesh.slot_count()));
+  for (double& v : extra) v = 1e-3 * unit(rng);
+  // The reference gradient of each particle with these terms, and its sums per tile.
+  std::vector<double> expected(st.gradient.size(), 0.0);
+  std::vector<kernels::vector::ParticleLanesSums> tile_sums;
+  double gmax = 0.0;
+  for (const auto& slots : tiles_of(mesh, ElementKind::particles)) {
+    kernels::vector::ParticleLanesSums sums;
+    for (std::size_t q = 0; q < slots.size(); ++q) {
+      const std::int64_t s = slots[q];
+      const double* e = &extra[4 * q];
+      if ((mesh.flags[s] & kernels::kParticlePinned) != 0) continue;
+      const double m = mesh.mass[s];
+      const Eigen::Vector3d offset = x(s) - kernels::vec3(st.target, s);
+      const Eigen::Vector3d own =
+          m / (dt * dt) * offset - m * gravity + Eigen::Vector3d(e[0], e[1], e[2]);
+      const Eigen::Vector3d g =
+          own + kernels::gather_elastic_at(
+                    mesh, s, x, [&](std::int64_t id) { return st.edge_scratch[id]; },
+                    [&](std::int64_t id) { return Eigen::Vector3d(&st.triple_scratch[3 * id]); });
+      kernels::vec3(expected, s) = g;
+      gmax = std::max(gmax, g.cwiseAbs().maxCoeff());
+      const Eigen::Vector3d z = kernels::apply_symmetric(st.preconditioner, s, g);
+      const double ratio = g.norm() / (m * g_ref);
+      sums.energy += 0.5 * m / (dt * dt) * offset.squaredNorm() -
+                     m * gravity.dot(x(s) - kernels::vec3(st.step_start, s)) + e[3];
+      sums.residual_sq += ratio * ratio;
+      sums.residual_max = std::max(sums.residual_max, ratio);
+      sums.slope += g.dot(kernels::vec3(st.direction, s));
+      sums.grad_dot_z += g.dot(z);
+      sums.grad_old_dot_z += kernels::vec3(st.gradient_old, s).dot(z);
+    }
+    tile_sums.push_back(sums);
+  }
+  ASSERT_GT(gmax, 0.0);
+  const auto args = kernels::vector::particle_lanes_args(mesh, st, gravity, g_ref, dt);
+  const kernels::vector::ElementLanesKernels* isas[4];
+  const int n = kernels::vector::supported_element_lanes_kernels(isas, 4);
+  for (int k = 0; k < n; ++k) {
+    const std::string isa = what + ", " + isas[k]->isa + ", particles";
+    std::fill(st.gradient.begin(), st.gradient.end(), -1.0);
+    std::size_t t = 0;
+    for (const auto& slots : tiles_of(mesh, ElementKind::particles)) {
+      const kernels::vector::ParticleLanesSums& want = tile_sums[t++];
+      if (slots.empty()) continue;
+      const kernels::vector::ParticleLanesSums got = isas[k]->particles(
+          args, slots.data(), extra.data(), static_cast<std::int64_t>(slots.size()));
+      const double got_values[6] = {got.energy, got.residual_sq, got.residual_max,
+                                    got.slope,  got.grad_dot_z,  got.grad_old_dot_z};
+      const double want_values[6] = {want.energy, want.residual_sq, want.residual_max,
+                                     want.slope,  want.grad_dot_z,  want.grad_old_dot_z};
+      for (int c = 0; c < 6; ++c) {
+        EXPECT_LE(relative_difference(got_values[c], want_values[c], 0.0), kRelative)
+            << isa << ": tile " << t - 1 << " sum " << c << " vector " << got_values[c]
+            << " reference " << want_values[c];
+      }
+    }
+    double worst = 0.0;
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      if ((mesh.flags[s] & kernels::kParticleActive) == 0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double r = relative_difference(st.gradient[3 * s + c], expected[3 * s + c], gmax);
+        worst = std::max(worst, r);
+        EXPECT_LE(r, kRelative) << isa << ": particle " << s << " component " << c;
+      }
+    }
+    std::printf("%s: worst relative difference %.3g\n", isa.c_str(), worst);
+  }
+}
+
 /// Compares every ISA's kernels on `ref` (after the reference evaluate()) element by element,
 /// and the vector simulation's whole evaluation with the reference's.
 void compare(kernels::Simulation& ref, kernels::Simulation& vec, const std::string& what) {
@@ -191,9 +286,23 @@ void compare(kernels::Simulation& ref, kernels::Simulation& vec, const std::stri
   }
   std::copy(edge_ref.begin(), edge_ref.end(), st.edge_scratch.begin());
   std::copy(triple_ref.begin(), triple_ref.end(), st.triple_scratch.begin());
+  const std::vector<double> gradient_ref = st.gradient;
+  compare_particles(ref, what);
+  st.gradient = gradient_ref;
 
-  // The whole evaluation: energy and the gradient (the scalar gather of the vector scratch).
+  // The whole evaluation (vector element and particle loops, the scalar terms of contact,
+  // scripted forces and ghost children): every sum and the gradient.
   EXPECT_LE(std::abs(ev.value - er.value), 1e-12 * std::abs(er.value)) << what << ": energy";
+  const double sums_ref[5] = {er.slope, er.grad_dot_z, er.grad_old_dot_z, er.residual_sq,
+                              er.residual_max};
+  const double sums_vec[5] = {ev.slope, ev.grad_dot_z, ev.grad_old_dot_z, ev.residual_sq,
+                              ev.residual_max};
+  for (int c = 0; c < 5; ++c) {
+    EXPECT_LE(relative_difference(sums_vec[c], sums_ref[c], 0.0), 1e-11) << what << ": sum " << c;
+  }
+  EXPECT_EQ(ev.free_particles, er.free_particles) << what;
+  EXPECT_EQ(ev.contact_tested, er.contact_tested) << what;
+  EXPECT_EQ(ev.contact_skipped, er.contact_skipped) << what;
   double gmax = 0.0, dmax = 0.0;
   for (std::size_t i = 0; i < st.gradient.size(); ++i) {
     gmax = std::max(gmax, std::abs(st.gradient[i]));
@@ -216,6 +325,8 @@ TEST(VectorElements, MatchTheReferenceOnRandomStatesInEveryRegime) {
       for (kernels::Simulation* sim : {&ref, &vec}) {
         testing::randomise_state(*sim, seed);
         spread_history(*sim, seed + 10);
+        randomise_solver_vectors(*sim, seed + 20);
+        sim->set_external_force(4, 3, Eigen::Vector3d(0.01, -0.02, 0.03));  // a scripted pull
       }
       const RegimeCounts e = edge_regimes(ref), t = triple_regimes(ref);
       EXPECT_GT(e.loading, 0);
@@ -239,6 +350,7 @@ TEST(VectorElements, MatchTheReferenceOnAStretchedCloth) {
   for (kernels::Simulation* sim : {&ref, &vec}) {
     testing::randomise_state(*sim, 5);
     spread_history(*sim, 6);
+    randomise_solver_vectors(*sim, 7);
   }
   int beyond = 0;
   for (std::int64_t id = 0; id < 2 * ref.mesh().slot_count(); ++id) {
@@ -273,9 +385,29 @@ TEST(VectorElements, MatchTheReferenceOnAnAdaptiveMeshWithGhosts) {
     sim->end_tree_edit();
     testing::randomise_state(*sim, 8);
     spread_history(*sim, 9);
+    randomise_solver_vectors(*sim, 10);
   }
   ASSERT_GT(ref.mesh().ghost_count(), 0) << "the mesh must have ghosts";
   compare(ref, vec, "adaptive");
+}
+
+TEST(VectorElements, MatchTheReferenceInFullLaneGroupsWithContact) {
+  // Tiles of 19 particles (whole groups of 2, 4 and 8 lanes and a remainder), obstacles under
+  // part of the cloth, pins and a scripted force.
+  kernels::SimulationConfig c = testing::small_cloth(true, true);
+  c.cloth.particles_i = 23;
+  c.cloth.particles_j = 19;
+  c.cloth.block_size = 19;
+  c.cloth.pinned = {{0, 0}, {22, 18}};
+  kernels::Simulation ref(with_kernel(c, kernels::ElementKernel::reference));
+  kernels::Simulation vec(with_kernel(c, kernels::ElementKernel::vector));
+  for (kernels::Simulation* sim : {&ref, &vec}) {
+    testing::randomise_state(*sim, 11);
+    spread_history(*sim, 12);
+    randomise_solver_vectors(*sim, 13);
+    sim->set_external_force(11, 9, Eigen::Vector3d(-0.02, 0.01, 0.05));
+  }
+  compare(ref, vec, "full lanes");
 }
 
 }  // namespace
