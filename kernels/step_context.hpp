@@ -110,18 +110,19 @@ inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
   return c;
 }
 
-/// The step's initial guess for particle s: the inertial target x~, projected out of any
-/// obstacle to `layer` times the contact distance (a falling particle's x~ can lie deep inside
-/// an obstacle, where the penalty would start the minimisation from a huge residual). The
-/// violation formulation's support switches on at the contact distance, so it projects to
-/// the middle of the layer rather than onto the switch. `mask` is the broad phase of the
-/// targets; once a projection has moved x off its target every later obstacle is tested.
 /// LoopBytes (loop_bytes.hpp) of a loop setting every free particle's initial guess: flags
 /// and x~ read, x written.
 inline constexpr LoopBytes kInitialGuessBytes{.read = bytes::kFlag + bytes::kVector3,
                                               .written = bytes::kVector3};
 /// LoopBytes of a move along the direction, x += delta d: x and d read, x written.
 inline constexpr LoopBytes kMoveBytes{.read = 2 * bytes::kVector3, .written = bytes::kVector3};
+
+/// The step's initial guess for particle s: the inertial target x~, projected out of any
+/// obstacle to `layer` times the contact distance (a falling particle's x~ can lie deep inside
+/// an obstacle, where the penalty would start the minimisation from a huge residual). The
+/// violation formulation's support switches on at the contact distance, so it projects to
+/// the middle of the layer rather than onto the switch. `mask` is the broad phase of the
+/// targets; once a projection has moved x off its target every later obstacle is tested.
 inline Eigen::Vector3d initial_guess(const StepContext& ctx, std::int64_t s, double layer = 1.0,
                                      ObstacleMask mask = kEveryObstacle) {
   Eigen::Vector3d x = vec3(ctx.state.target, s);

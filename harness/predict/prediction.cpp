@@ -109,6 +109,7 @@ Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
     p.notes.push_back("the trace records no run time: sequential time taken as 0");
   }
   add_bandwidth_notes(p, threads);
+  bool bound_at_one = false;  // noted once, for the first scheduler whose 1-thread row is bound
   for (const std::string& text : schedulers) {
     const ScheduleModel model = ScheduleModel::parse(text, runtime);
     if (model.spec.space == schedulers::IterationSpace::active &&
@@ -120,12 +121,13 @@ Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
           model.name(), workload.dropped_for_active_seconds));
     }
     const PredictedRow one = predict_row(workload, model, 1, overheads, bandwidth);
-    if (one.bandwidth_bound_loops > 0 && p.rows.empty()) {
+    if (one.bandwidth_bound_loops > 0 && !bound_at_one) {
+      bound_at_one = true;
       p.notes.push_back(fmt::format(
           "at 1 thread {} loop instances take less than their bytes / B(1) in the trace itself "
           "(their data stays in cache between loops, which the triad's arrays do not): the "
-          "ceiling lengthens them by {:.4f} s there, and the 1-thread rows exceed the trace",
-          one.bandwidth_bound_loops, one.bandwidth_added_seconds));
+          "ceiling lengthens them by {:.4f} s under {}, and the 1-thread rows exceed the trace",
+          one.bandwidth_bound_loops, one.bandwidth_added_seconds, model.name()));
     }
     for (int t : threads) {
       PredictedRow row = t == 1 ? one : predict_row(workload, model, t, overheads, bandwidth);
