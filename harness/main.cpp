@@ -140,6 +140,12 @@ int main(int argc, char** argv) {
       "With --trace: store the per-loop and per-chunk scheduling costs of clothbench-micro "
       "--benchmark_filter=scheduling_overhead --benchmark_format=json --benchmark_out=FILE in "
       "the trace header (clothbench predict uses them)");
+  std::filesystem::path trace_bandwidth;
+  auto* trace_bandwidth_option = run_command->add_option(
+      "--trace-bandwidth", trace_bandwidth,
+      "With --trace: store the triad bandwidth at 1..cores threads of clothbench-micro "
+      "--benchmark_filter=^triad --benchmark_format=json --benchmark_out=FILE in the trace "
+      "header (clothbench predict's bandwidth ceiling)");
 
   std::filesystem::path check_file;
   auto* check_command =
@@ -227,6 +233,11 @@ int main(int argc, char** argv) {
       "--trace-overheads", sweep_trace_overheads,
       "With --trace: store the scheduling costs of this scheduling_overhead JSON "
       "(clothbench-micro) in every trace's header");
+  std::filesystem::path sweep_trace_bandwidth;
+  auto* sweep_trace_bandwidth_option = sweep_command->add_option(
+      "--trace-bandwidth", sweep_trace_bandwidth,
+      "With --trace: store the triad bandwidth of this clothbench-micro JSON "
+      "(--benchmark_filter=^triad) in every trace's header");
 
   // `clothbench experiment NAME`: the paper's experiments, one command each.
   clothbench::harness::ExperimentOptions experiment;
@@ -302,6 +313,7 @@ int main(int argc, char** argv) {
       if (*trace_option) run.trace_file = trace_file;
       if (*trace_step_option) run.trace_step = trace_step;
       if (*trace_overheads_option) run.trace_overheads = trace_overheads;
+      if (*trace_bandwidth_option) run.trace_bandwidth = trace_bandwidth;
       return clothbench::harness::run_scene(run);
     }
     if (*check_command) return check_scene(check_file);
@@ -341,6 +353,7 @@ int main(int argc, char** argv) {
         sweep.plots = !sweep_no_plots;
         if (*sweep_trace_option) sweep.trace_dir = sweep_trace_dir;
         if (*sweep_trace_overheads_option) sweep.trace_overheads = sweep_trace_overheads;
+        if (*sweep_trace_bandwidth_option) sweep.trace_bandwidth = sweep_trace_bandwidth;
         sweep.command_line.assign(argv, argv + argc);
         return clothbench::harness::run_sweep(sweep);
       } catch (const std::invalid_argument& error) {

@@ -11,15 +11,19 @@
 #include <type_traits>
 #include <vector>
 
+#include "kernels/loop_bytes.hpp"
+
 namespace clothbench::kernels {
 
 /// Where a parallel loop is written: the function and line of its LoopRunner call, captured
 /// by the default argument (`__builtin_FUNCTION`/`__builtin_LINE`, which GCC and Clang 14
 /// provide; std::source_location needs Clang 15 with libstdc++). `function` points to a
-/// string literal for the life of the program.
+/// string literal for the life of the program. `bytes`: the loop's LoopBytes, set by the
+/// LoopRunner from its call's argument (the trace records it per loop instance).
 struct LoopSite {
   const char* function;
   int line;
+  LoopBytes bytes{};
   // NOLINTNEXTLINE(google-explicit-constructor): default-constructed at the caller's line
   constexpr LoopSite(const char* f = __builtin_FUNCTION(), int l = __builtin_LINE())
       : function(f), line(l) {}
@@ -51,8 +55,10 @@ struct ChunkRecord {
 /// One parallel loop instance (recorded by thread 0; every thread runs every loop): its step
 /// (1-based), the solver iteration it ran in (CG or Newton iterations completed in the step
 /// when it started, counted anew in each sub-step), its site (index into sites()), the size n
-/// of its iteration space, and its span: first thread's entry to last thread's exit (the
-/// exit follows the loop's closing barrier). 40 bytes; the trace file's record as is.
+/// of its iteration space, its span: first thread's entry to last thread's exit (the exit
+/// follows the loop's closing barrier), and the unavoidable bytes per element its call
+/// declares (LoopBytes::per_element; kBytesNotRecorded in a trace of format 1). 48 bytes;
+/// the trace file's record as is.
 struct LoopRecord {
   std::uint32_t instance;
   std::int32_t step;
@@ -61,9 +67,12 @@ struct LoopRecord {
   std::int64_t n;
   std::int64_t entry_ns;
   std::int64_t exit_ns;
+  double bytes_per_element;
 };
+/// LoopRecord::bytes_per_element of a loop whose trace predates the figure (format 1).
+inline constexpr double kBytesNotRecorded = -1.0;
 static_assert(sizeof(ChunkRecord) == 40 && std::is_trivially_copyable_v<ChunkRecord>);
-static_assert(sizeof(LoopRecord) == 40 && std::is_trivially_copyable_v<LoopRecord>);
+static_assert(sizeof(LoopRecord) == 48 && std::is_trivially_copyable_v<LoopRecord>);
 
 /// The trace of one run: per-thread chunk buffers and loop spans, and thread 0's loop records.
 /// Set up outside any parallel region (start), then passed to Simulation::step, which tells it
@@ -135,8 +144,8 @@ class ChunkTrace {
   /// Thread 0 at loop entry: the loop's record (span completed by end_loop of every thread).
   void add_loop(const LoopSite& site, int kind, std::uint32_t instance, int iteration,
                 std::int64_t n, std::int64_t entry_ns) {
-    loops_.push_back(
-        LoopRecord{instance, step_, iteration, site_index(site, kind), n, entry_ns, entry_ns});
+    loops_.push_back(LoopRecord{instance, step_, iteration, site_index(site, kind), n, entry_ns,
+                                entry_ns, site.bytes.per_element()});
   }
   /// Every thread at loop exit: its span of the loop.
   void end_loop(int t, std::int64_t entry_ns, std::int64_t exit_ns) {

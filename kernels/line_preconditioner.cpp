@@ -44,10 +44,25 @@ void LinePreconditioner::walk_line(const StepContext& ctx, int d, int line, F&& 
   }
 }
 
+namespace {
+/// What walk_line reads per grid point: its slot, flags, and the link from the previous node
+/// (its edge's flag and next).
+constexpr double kWalkRead = 2 * bytes::kIndex + 2 * bytes::kFlag;
+/// LoopBytes per grid line of direction d (loop_bytes.hpp): `per_node` for each of its points.
+LoopBytes per_line(const ClothMesh& mesh, int d, LoopBytes per_node) {
+  const double length = d == 0 ? mesh.size_i() : mesh.size_j();
+  return {.read = length * per_node.read, .written = length * per_node.written};
+}
+}  // namespace
+
 void LinePreconditioner::factor(LoopRunner& run, const StepContext& ctx) {
   const ClothMesh& mesh = ctx.mesh;
   for (int d = 0; d < 2; ++d) {
-    run.for_index(d == 0 ? mesh.size_j() : mesh.size_i(), [&](std::int64_t line) {
+    // Per node: the walk, its diagonal block and the link's edge block read; its pivot
+    // inverse written.
+    const LoopBytes line_bytes =
+        per_line(mesh, d, {.read = kWalkRead + 2 * bytes::kBlockD, .written = bytes::kBlockD});
+    run.for_index(d == 0 ? mesh.size_j() : mesh.size_i(), line_bytes, [&](std::int64_t line) {
       Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();  // of the previous pivot
       walk_line(ctx, d, static_cast<int>(line), [&](std::int64_t s, bool linked,
                                                     std::int64_t previous) {
@@ -67,7 +82,12 @@ void LinePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
                                const std::vector<double>& g, std::vector<double>& out) {
   const ClothMesh& mesh = ctx.mesh;
   for (int d = 0; d < 2; ++d) {
-    run.for_index(d == 0 ? mesh.size_j() : mesh.size_i(), [&](std::int64_t line) {
+    // Per node: the walk, g, the edge block and the pivot inverse read; the line's value
+    // written (and read back within the line, from cache).
+    const LoopBytes line_bytes = per_line(
+        mesh, d,
+        {.read = kWalkRead + bytes::kVector3 + 2 * bytes::kBlockD, .written = bytes::kVector3});
+    run.for_index(d == 0 ? mesh.size_j() : mesh.size_i(), line_bytes, [&](std::int64_t line) {
       thread_local std::vector<std::int64_t> order;
       thread_local std::vector<char> linked_to_previous;
       order.clear();
@@ -101,7 +121,10 @@ void LinePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
       }
     });
   }
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  // Flags and both directions' values read, z written.
+  const LoopBytes mean_bytes{.read = bytes::kFlag + 2 * bytes::kVector3,
+                             .written = bytes::kVector3};
+  run.for_each(ElementKind::particles, mean_bytes, [&](std::int64_t s) {
     auto z = vec3(out, s);
     if (!ctx.is_free(s)) {
       z.setZero();

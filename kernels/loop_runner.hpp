@@ -124,9 +124,13 @@ class LoopRunner {
 
   /// Calls body(id, acc) for every live element of `kind`; acc is a fresh Acc per tile and is
   /// stored as that tile's partial when `partials` is not null (sized mesh.tile_count()).
-  /// (Every loop call takes its caller's LoopSite by default: the trace's loop name.)
+  /// Every loop call declares `bytes`, the unavoidable bytes per element of its body
+  /// (loop_bytes.hpp), before the body, and takes its caller's LoopSite by default (the
+  /// trace's loop name).
   template <class Acc, class Body>
-  void for_each(ElementKind kind, TilePartials<Acc>* partials, Body&& body, LoopSite site = {}) {
+  void for_each(ElementKind kind, TilePartials<Acc>* partials, LoopBytes bytes, Body&& body,
+                LoopSite site = {}) {
+    site.bytes = bytes;
     NoPrepare none;
     run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
                   none, [&](std::int64_t id, Acc& acc, NoTileContext) { body(id, acc); }, site);
@@ -134,7 +138,8 @@ class LoopRunner {
 
   /// Same with no reduction.
   template <class Body>
-  void for_each(ElementKind kind, Body&& body, LoopSite site = {}) {
+  void for_each(ElementKind kind, LoopBytes bytes, Body&& body, LoopSite site = {}) {
+    site.bytes = bytes;
     NoPrepare none;
     run_loop<NoReduction>(kind, nullptr, none,
                           [&](std::int64_t id, NoReduction&, NoTileContext) { body(id); }, site);
@@ -146,15 +151,18 @@ class LoopRunner {
   /// tile may run on another thread than the caller's (taskloop), so never the caller's
   /// locals. Over blocks every tile is prepared, over lists every tile with entries.
   template <class Acc, class Prepare, class Body>
-  void for_each_prepared(ElementKind kind, TilePartials<Acc>* partials, Prepare&& prepare,
-                         Body&& body, LoopSite site = {}) {
+  void for_each_prepared(ElementKind kind, TilePartials<Acc>* partials, LoopBytes bytes,
+                         Prepare&& prepare, Body&& body, LoopSite site = {}) {
+    site.bytes = bytes;
     run_loop<Acc>(kind, partials == nullptr ? nullptr : partials->buffer(flip(partials, kind)),
                   prepare, body, site);
   }
 
   /// Same with no reduction: context = prepare(tile), body(id, context).
   template <class Prepare, class Body>
-  void for_each_prepared(ElementKind kind, Prepare&& prepare, Body&& body, LoopSite site = {}) {
+  void for_each_prepared(ElementKind kind, LoopBytes bytes, Prepare&& prepare, Body&& body,
+                         LoopSite site = {}) {
+    site.bytes = bytes;
     auto tile_start = [&](std::int64_t tile, NoReduction&) { return prepare(tile); };
     run_loop<NoReduction>(
         kind, nullptr, tile_start,
@@ -168,8 +176,9 @@ class LoopRunner {
   /// For kernels that batch a tile's elements into vector lanes (kernels/vector/element_lanes.hpp):
   /// lane groups formed from `ids` are fixed per tile, so results do not depend on the split.
   template <class Acc, class TileBody>
-  void for_each_tile(ElementKind kind, TilePartials<Acc>* partials, TileBody&& tile_body,
-                     LoopSite site = {}) {
+  void for_each_tile(ElementKind kind, TilePartials<Acc>* partials, LoopBytes bytes,
+                     TileBody&& tile_body, LoopSite site = {}) {
+    site.bytes = bytes;
     Acc* out = partials == nullptr ? nullptr : partials->buffer(flip(partials, kind));
     const int kind_code = static_cast<int>(kind);
     if (driver_.space() == schedulers::IterationSpace::blocks) {
@@ -214,9 +223,10 @@ class LoopRunner {
 
   /// Calls body(k) for every k in [0, n): work over something other than mesh elements (the
   /// line-solve preconditioner's grid lines). Timed like the element loops (it is parallel
-  /// work, not sequential overhead); ends with the driver's barrier.
+  /// work, not sequential overhead); ends with the driver's barrier. `bytes` per index.
   template <class Body>
-  void for_index(std::int64_t n, Body&& body, LoopSite site = {}) {
+  void for_index(std::int64_t n, LoopBytes bytes, Body&& body, LoopSite site = {}) {
+    site.bytes = bytes;
     timed_loop(n, -1, site, [&](std::int64_t b, std::int64_t e, auto& timed_call) {
       timed_call([&] {
         for (std::int64_t k = b; k < e; ++k) body(k);

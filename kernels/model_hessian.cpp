@@ -72,7 +72,12 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
   auto reached = [&](std::int64_t k) -> Eigen::Vector3d {
     return vec3(st.position, k) + vec3(st.direction, k);
   };
-  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+  // Per element: the term's reads and the previous stiffness, p's share when reaching; the
+  // stiffness written.
+  const double reach_read = reach ? bytes::kSlotShare * bytes::kVector3 : 0.0;
+  const LoopBytes edge_bytes{.read = kEdgeTermRead + bytes::kDouble + reach_read,
+                             .written = 2 * bytes::kDouble};
+  run.for_each(ElementKind::edges, edge_bytes, [&](std::int64_t id) {
     const EdgeTerm e = edge_term(ctx, id, x);
     const double w = mesh.edge_width[id];
     double slope = e.slope;
@@ -89,7 +94,9 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
   const double zero_slopes[2] = {
       ctx.material.bending[0].curves(std::numeric_limits<double>::min()).upper_slope,
       ctx.material.bending[1].curves(std::numeric_limits<double>::min()).upper_slope};
-  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+  const LoopBytes triple_bytes{.read = kTripleTermRead + bytes::kDouble + reach_read,
+                               .written = bytes::kDouble};
+  run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     // The band's slope on the branch the return mapping takes at the current curvature: zero
     // on the plateau (a straight triple with no previous moment lies on it). A straight triple
     // with a previous moment is on the loading branch as soon as it bends: its slope there is
@@ -180,8 +187,12 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   auto value = [&](std::int64_t k) { return vec3(v, k); };
   refresh_ghosts(run, mesh, v);
-  // Triples: q_t = c J v = c (P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1|), 3 per id.
-  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+  // Triples: q_t = c J v = c (P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1|), 3 per id. c, prev,
+  // next and the shares of x and v read; q written.
+  const LoopBytes triple_bytes{
+      .read = bytes::kDouble + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
+      .written = bytes::kVector3};
+  run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     auto q = vec3(st.triple_scratch, id);
     const double c = bending_[id];
     const TripleArms arms = c > 0.0 ? triple_arms(mesh, id, x) : TripleArms{};
@@ -232,15 +243,20 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
     }
     return out;
   };
-  run.for_each<ScalarSum>(ElementKind::particles, &dot_partials_, [&](std::int64_t s, ScalarSum& acc) {
-    auto out = vec3(y, s);
-    if (!ctx.is_free(s)) {
-      out.setZero();
-      return;
-    }
-    out = load_symmetric(inertia_, s) * value(s) + with_ghost_children(mesh, s, node_product);
-    acc.value += value(s).dot(out);
-  });
+  // Flags, the inertia block, x, v, the slot's elements and its triples' q read; y written.
+  const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kBlockD + 2 * bytes::kVector3 +
+                                         bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
+                                 .written = bytes::kVector3};
+  run.for_each<ScalarSum>(
+      ElementKind::particles, &dot_partials_, particle_bytes, [&](std::int64_t s, ScalarSum& acc) {
+        auto out = vec3(y, s);
+        if (!ctx.is_free(s)) {
+          out.setZero();
+          return;
+        }
+        out = load_symmetric(inertia_, s) * value(s) + with_ghost_children(mesh, s, node_product);
+        acc.value += value(s).dot(out);
+      });
   return run.reduce(dot_partials_).value;
 }
 

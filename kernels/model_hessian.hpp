@@ -49,6 +49,13 @@ std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* co
 
 class ModelHessian {
  public:
+  /// What a particle loop over the model reads per element id of its slot (loop_bytes.hpp):
+  /// next, prev, both element flags, the edge's alpha and beta, the triple's c.
+  static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 3 * bytes::kDouble;
+  /// What sum_row reads of its particle: the inertia block, the position, its slot's elements.
+  static constexpr double kRowRead =
+      bytes::kBlockD + bytes::kVector3 + bytes::kIdsPerSlot * kElementRead;
+
   explicit ModelHessian(const ClothMesh& mesh);
 
   /// Assembles H at the current positions for step length ctx.dt() (edges, triples, then
@@ -57,10 +64,11 @@ class ModelHessian {
   /// pinned particle), for the preconditioners. Every thread of the region calls it.
   /// `new_step`: the first assembly of a (sub-)step; later ones reach along the last Newton
   /// direction (ctx.state.direction, whose ghost entries they overwrite with midpoints) and
-  /// remember the previous assembly's stiffness.
+  /// remember the previous assembly's stiffness. `diagonal_written`: the bytes `diagonal`
+  /// writes per particle (its loop's LoopBytes, loop_bytes.hpp).
   template <class Diagonal>
-  void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
-                bool new_step = true);
+  void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal, bool new_step = true,
+                double diagonal_written = 0.0);
 
   /// y = H v on the free particles (0 elsewhere); returns v . y. v must be zero on every
   /// active particle that is not free; its ghost entries are overwritten (midpoints). Uses the
@@ -133,8 +141,8 @@ class ModelHessian {
  private:
   /// Every thread; per particle: store the inertia block, call diagonal(s, full block).
   template <class Diagonal>
-  void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal,
-                          bool reach);
+  void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal, bool reach,
+                          double diagonal_written);
   /// Edge and triple coefficients at the current positions (two loops).
   void assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step);
   /// The full diagonal block of particle s without inertia and contact: edges and triples.
@@ -148,18 +156,24 @@ class ModelHessian {
 
 template <class Diagonal>
 void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
-                            bool new_step) {
+                            bool new_step, double diagonal_written) {
   assemble_elements(run, ctx, new_step);
-  assemble_particles(run, ctx, diagonal, !new_step);
+  assemble_particles(run, ctx, diagonal, !new_step, diagonal_written);
 }
 
 template <class Diagonal>
 void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal,
-                                      bool reach) {
+                                      bool reach, double diagonal_written) {
   const ClothState& st = ctx.state;
   const double dt = ctx.dt();
+  // Flags, x, mass, p when reaching, the slot's elements read; the inertia block and what
+  // `diagonal` stores written.
+  const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kVector3 + bytes::kDouble +
+                                         (reach ? bytes::kVector3 : 0.0) +
+                                         bytes::kIdsPerSlot * kElementRead,
+                                 .written = bytes::kBlockD + diagonal_written};
   run.for_each_prepared(
-      ElementKind::particles,
+      ElementKind::particles, particle_bytes,
       [&](std::int64_t tile) {
         // Reaching, the box covers x and x + p.
         return ctx.broad_phase()

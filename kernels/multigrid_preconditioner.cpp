@@ -124,7 +124,23 @@ void MultigridPreconditioner::apply(LoopRunner& run, const StepContext& ctx,
   // on one thread, then each particle adds its prolonged correction.
   lines.apply(run, ctx, r, out);
   if (!coarse_ready_) return;
-  run.for_index(restriction_.rows(), [&](std::int64_t row) {
+  // Per restriction row: its entries (value and column) and start, every entry of r once;
+  // the coarse entry written. Per particle: flags, its three prolongation rows, every coarse
+  // entry once, out read and written.
+  const auto per = [](double total, double count) { return count > 0.0 ? total / count : 0.0; };
+  const double entry = bytes::kDouble + bytes::kIndex;
+  const auto rows = static_cast<double>(restriction_.rows());
+  const LoopBytes restrict_bytes{
+      .read = bytes::kIndex + per(entry * static_cast<double>(restriction_.nonZeros()) +
+                                      bytes::kDouble * static_cast<double>(r.size()),
+                                  rows),
+      .written = bytes::kDouble};
+  const LoopBytes prolong_bytes{
+      .read = bytes::kFlag + 3 * bytes::kIndex + bytes::kVector3 +
+              per(entry * static_cast<double>(prolongation_.nonZeros()) + bytes::kDouble * rows,
+                  static_cast<double>(ctx.mesh.slot_count())),
+      .written = bytes::kVector3};
+  run.for_index(restriction_.rows(), restrict_bytes, [&](std::int64_t row) {
     double sum = 0.0;
     for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(restriction_, row); it;
          ++it) {
@@ -134,7 +150,7 @@ void MultigridPreconditioner::apply(LoopRunner& run, const StepContext& ctx,
   });
 #pragma omp single
   coarse_x_ = direct_.solve(coarse_r_);
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  run.for_each(ElementKind::particles, prolong_bytes, [&](std::int64_t s) {
     if (!ctx.is_free(s)) return;
     for (int k = 0; k < 3; ++k) {
       double sum = 0.0;

@@ -6,9 +6,29 @@
 #include <type_traits>
 
 #include "kernels/ghost_nodes.hpp"
+#include "kernels/loop_bytes.hpp"
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
+
+// What the element terms below read, for the LoopBytes of the loops that call them
+// (loop_bytes.hpp: each entry once per loop, positions as a slot's share per id).
+/// Per edge id, edge_term besides positions: next, rest length and width (floats), the
+/// previous force.
+inline constexpr double kEdgeTermData = bytes::kIndex + 2 * bytes::kFloat + bytes::kDouble;
+/// Per edge id, all edge_term reads: kEdgeTermData and its share of the positions.
+inline constexpr double kEdgeTermRead = kEdgeTermData + bytes::kSlotShare * bytes::kVector3;
+/// Per triple id, triple_term besides positions: prev and next, rest spacing and width
+/// (floats), the previous moment and its two breakpoints.
+inline constexpr double kTripleTermData =
+    2 * bytes::kIndex + 2 * bytes::kFloat + 3 * bytes::kDouble;
+/// Per triple id, all triple_term reads.
+inline constexpr double kTripleTermRead = kTripleTermData + bytes::kSlotShare * bytes::kVector3;
+/// Per particle, gather_elastic_gradient: its position, and of its slot's two ids next, prev,
+/// both element flags and the scratch the element loops wrote (1 + 3 doubles).
+inline constexpr double kGatherElasticRead =
+    bytes::kVector3 +
+    bytes::kIdsPerSlot * (2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble);
 
 /// Return mapping evaluated regime first: the curves at `strain` (one log and two exp for
 /// tension, one expm1 for bending) decide the branch, and the breakpoints (curve inverses) are

@@ -15,19 +15,27 @@ void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
   const Preconditioner kind = ctx_.config.solver.preconditioner;
   // Without a preconditioner the unknowns are positions in units of the finest spacing h.
   const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
-  newton_->hessian.assemble(run, ctx_, [&](std::int64_t s, const Eigen::Matrix3d& block) {
-    if (lines != nullptr) store_symmetric(lines->diagonal_block, s, block);
-    Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
-    if (ctx_.is_free(s)) {
-      inverse = kind == Preconditioner::none ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h))
-                                             : Eigen::Matrix3d(block.inverse());
-    }
-    store_symmetric(st.preconditioner, s, inverse);
-  }, new_step);
+  newton_->hessian.assemble(
+      run, ctx_,
+      [&](std::int64_t s, const Eigen::Matrix3d& block) {
+        if (lines != nullptr) store_symmetric(lines->diagonal_block, s, block);
+        Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+        if (ctx_.is_free(s)) {
+          inverse = kind == Preconditioner::none
+                        ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() * (h * h))
+                        : Eigen::Matrix3d(block.inverse());
+        }
+        store_symmetric(st.preconditioner, s, inverse);
+      },
+      new_step, bytes::kBlockF + (lines != nullptr ? bytes::kBlockD : 0.0));
   if (vcycle_ != nullptr) vcycle_->factor(run, ctx_, newton_->hessian);
   if (lines == nullptr) return;
   const ModelHessian& hessian = newton_->hessian;
-  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+  // x's share, next, alpha and beta read; the block written.
+  const LoopBytes edge_bytes{
+      .read = bytes::kSlotShare * bytes::kVector3 + bytes::kIndex + 2 * bytes::kDouble,
+      .written = bytes::kBlockD};
+  run.for_each(ElementKind::edges, edge_bytes, [&](std::int64_t id) {
     store_symmetric(lines->edge_block, id, hessian.edge_block(ctx_, id));
   });
   lines->factor(run, ctx_);
@@ -47,8 +55,10 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
   };
   LinearSolveReport report;
 
-  // x = 0, r = -g on the free particles.
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  // x = 0, r = -g on the free particles: flags and g read, x and r written.
+  const LoopBytes start_bytes{.read = bytes::kFlag + bytes::kVector3,
+                              .written = 2 * bytes::kVector3};
+  run.for_each(ElementKind::particles, start_bytes, [&](std::int64_t s) {
     vec3(st.direction, s).setZero();
     vec3(ns.residual, s) = ctx_.is_free(s) ? Eigen::Vector3d(-vec3(st.gradient, s))
                                             : Eigen::Vector3d::Zero();
@@ -57,6 +67,9 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
   // the same loop as the sums; line solves first solve every line, the multigrids run a cycle.
   // Block Jacobi is applied inside the PCG's own loops; every other preconditioner has its own.
   const bool own_loops = lines != nullptr || vcycle_ != nullptr;
+  // Flags, mass, r, and z (own loops) or P^-1 read; z written when computed here.
+  const LoopBytes sums_bytes{.read = bytes::kFlag + bytes::kDouble + 2 * bytes::kVector3,
+                             .written = own_loops ? 0.0 : bytes::kVector3};
   auto precondition_residual = [&]() {
     if (vcycle_ != nullptr) {
       vcycle_->apply(run, ctx_, ns.residual, ns.product);
@@ -65,7 +78,7 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
     } else if (lines != nullptr) {
       lines->apply(run, ctx_, ns.residual, ns.product);
     }
-    run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
+    run.for_each<PcgSums>(ElementKind::particles, &ns.partials, sums_bytes,
                           [&](std::int64_t s, PcgSums& acc) {
                             auto z = vec3(ns.product, s);
                             if (!ctx_.is_free(s)) {
@@ -88,7 +101,8 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
   }
   const double target = forcing * norm0;
   double rz = sums.rz;
-  run.for_each(ElementKind::particles,
+  const LoopBytes copy_bytes{.read = bytes::kVector3, .written = bytes::kVector3};
+  run.for_each(ElementKind::particles, copy_bytes,
                [&](std::int64_t s) { vec3(ns.search, s) = vec3(ns.product, s); });
 
   while (report.iterations < max_iterations) {
@@ -100,7 +114,11 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
     const double alpha = rz / pq;
     ++report.iterations;
     const bool fused = !own_loops;
-    run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
+    // Flags, mass, d, p, r, Hp (and P^-1) read; d, r (and z) written.
+    const LoopBytes update_bytes{.read = bytes::kFlag + bytes::kDouble + 4 * bytes::kVector3 +
+                                         (fused ? bytes::kBlockF : 0.0),
+                                 .written = (fused ? 3 : 2) * bytes::kVector3};
+    run.for_each<PcgSums>(ElementKind::particles, &ns.partials, update_bytes,
                           [&](std::int64_t s, PcgSums& acc) {
                             if (!ctx_.is_free(s)) return;
                             vec3(st.direction, s) += alpha * vec3(ns.search, s);
@@ -123,19 +141,22 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
     if (!fused) sums = precondition_residual();
     const double beta = sums.rz / rz;
     rz = sums.rz;
-    run.for_each(ElementKind::particles, [&](std::int64_t s) {
+    const LoopBytes search_bytes{.read = bytes::kFlag + 2 * bytes::kVector3,
+                                 .written = bytes::kVector3};
+    run.for_each(ElementKind::particles, search_bytes, [&](std::int64_t s) {
       auto p = vec3(ns.search, s);
       p = ctx_.is_free(s) ? Eigen::Vector3d(vec3(ns.product, s) + beta * p) : Eigen::Vector3d::Zero();
     });
   }
   if (report.iterations == 0) {
     // H was not positive on the first direction: fall back to the preconditioned gradient.
-    run.for_each(ElementKind::particles,
+    run.for_each(ElementKind::particles, copy_bytes,
                  [&](std::int64_t s) { vec3(st.direction, s) = vec3(ns.search, s); });
   }
-  run.for_each<PcgSums>(ElementKind::particles, &ns.partials, [&](std::int64_t s, PcgSums& acc) {
-    acc.slope += vec3(st.gradient, s).dot(vec3(st.direction, s));
-  });
+  run.for_each<PcgSums>(ElementKind::particles, &ns.partials,
+                        LoopBytes{.read = 2 * bytes::kVector3}, [&](std::int64_t s, PcgSums& acc) {
+                          acc.slope += vec3(st.gradient, s).dot(vec3(st.direction, s));
+                        });
   report.slope = run.reduce(ns.partials).slope;
   return report;
 }

@@ -13,6 +13,20 @@
 
 namespace clothbench::kernels {
 
+namespace {
+// LoopBytes (loop_bytes.hpp) of loops written twice (scalar and vector kernels), and what the
+// diagonal blocks read.
+/// Energies and force densities: the edge's terms read, w t / l written.
+constexpr LoopBytes kEdgeEvaluation{.read = kEdgeTermRead, .written = bytes::kDouble};
+/// Energies and gradient coefficients: the triple's terms read, w M (A, Bc, C) written.
+constexpr LoopBytes kTripleEvaluation{.read = kTripleTermRead, .written = 3 * bytes::kDouble};
+/// What diagonal_block reads of a particle: mass, position, and of its slot's two ids what
+/// edge_term and triple_term read (next once) and both element flags.
+constexpr double kDiagonalBlockRead =
+    bytes::kDouble + bytes::kVector3 +
+    bytes::kIdsPerSlot * (kEdgeTermData + kTripleTermData - bytes::kIndex + 2 * bytes::kFlag);
+}  // namespace
+
 PotentialObjective::PotentialObjective(const StepContext& ctx)
     : ctx_(ctx),
       edge_partials_(ctx.mesh.tile_count()),
@@ -51,7 +65,7 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   prepare_history(run);
   run.for_each_prepared(
-      ElementKind::particles,
+      ElementKind::particles, kInitialGuessBytes,
       [&](std::int64_t tile) {  // broad phase of the targets the projection starts from
         return ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.target).mask : kEveryObstacle;
       },
@@ -130,8 +144,12 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
   // P^-1 = h^2 I (MODEL.md 5, scaled unknowns).
   const double h = std::min(ctx_.mesh.spacing(0), ctx_.mesh.spacing(1));
   LinePreconditioner* lines = lines_.get();
+  // Flags and the diagonal block's data read; the inverse (float) and the lines' block written.
+  const LoopBytes block_bytes{
+      .read = bytes::kFlag + (block_jacobi ? kDiagonalBlockRead : 0.0),
+      .written = bytes::kBlockF + (lines != nullptr ? bytes::kBlockD : 0.0)};
   run.for_each_prepared(
-      ElementKind::particles,
+      ElementKind::particles, block_bytes,
       [&](std::int64_t tile) {
         return block_jacobi && ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.position).mask
                                                   : kEveryObstacle;
@@ -151,7 +169,7 @@ void PotentialObjective::refresh_preconditioner(LoopRunner& run) {
         store_symmetric(st.preconditioner, s, inverse);
       });
   if (lines == nullptr) return;
-  run.for_each(ElementKind::edges,
+  run.for_each(ElementKind::edges, LoopBytes{.read = kEdgeTermRead, .written = bytes::kBlockD},
                [&](std::int64_t id) { store_symmetric(lines->edge_block, id, edge_tangent(id)); });
   lines->factor(run, ctx_);
 }
@@ -161,6 +179,7 @@ void PotentialObjective::precondition(LoopRunner& run, Evaluation& e) {
   ClothState& st = ctx_.state;
   lines_->apply(run, ctx_, st.gradient, line_z_);
   run.for_each<GatherSums>(ElementKind::particles, &precondition_partials_,
+                           LoopBytes{.read = 3 * bytes::kVector3},  // z, g, g_old
                            [&](std::int64_t s, GatherSums& acc) {
                              const Eigen::Vector3d z = vec3(line_z_, s);
                              acc.grad_dot_z += vec3(st.gradient, s).dot(z);
@@ -247,13 +266,13 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   if (ctx_.config.solver.kernel == ElementKernel::vector) {
     evaluate_elements_vector(run);
   } else {
-    run.for_each<ScalarSum>(ElementKind::edges, &edge_partials_,
+    run.for_each<ScalarSum>(ElementKind::edges, &edge_partials_, kEdgeEvaluation,
                             [&](std::int64_t id, ScalarSum& acc) {
                               const EdgeTerm e = edge_term(ctx_, id, x);
                               st.edge_scratch[id] = e.force_density;
                               acc.value += e.energy;
                             });
-    run.for_each<ScalarSum>(ElementKind::triples, &triple_partials_,
+    run.for_each<ScalarSum>(ElementKind::triples, &triple_partials_, kTripleEvaluation,
                             [&](std::int64_t id, ScalarSum& acc) {
                               const TripleTerm t = triple_term(ctx_, id, x);
                               double* k = &st.triple_scratch[3 * id];
@@ -276,11 +295,15 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
     acc.contact_skipped += c.skipped;
     return c.mask;
   };
+  // Flags, mass, x~, x^n, the gather (x included), P^-1, d, g_old read; g written.
+  const LoopBytes gather_bytes{.read = bytes::kFlag + bytes::kDouble + 4 * bytes::kVector3 +
+                                       kGatherElasticRead + bytes::kBlockF,
+                               .written = bytes::kVector3};
   if (ctx_.config.solver.kernel == ElementKernel::vector && !numeric) {
-    evaluate_particles_vector(run, prepare);
+    evaluate_particles_vector(run, prepare, gather_bytes);
   } else {
     run.for_each_prepared<GatherSums>(
-        ElementKind::particles, &gather_partials_, prepare,
+        ElementKind::particles, &gather_partials_, gather_bytes, prepare,
         [&](std::int64_t s, GatherSums& acc, ObstacleMask mask) {
           auto g = vec3(st.gradient, s);
           if (!ctx_.is_free(s)) {
@@ -337,19 +360,20 @@ void PotentialObjective::evaluate_elements_vector(LoopRunner& run) {
   const vector::EdgeLanesArgs edges = vector::edge_lanes_args(mesh, st, ctx_.material);
   const vector::TripleLanesArgs triples = vector::triple_lanes_args(mesh, st, ctx_.material);
   run.for_each_tile<ScalarSum>(
-      ElementKind::edges, &edge_partials_,
+      ElementKind::edges, &edge_partials_, kEdgeEvaluation,
       [&](std::int64_t, const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
         acc.value += lanes.edges(edges, ids, count);
       });
   run.for_each_tile<ScalarSum>(
-      ElementKind::triples, &triple_partials_,
+      ElementKind::triples, &triple_partials_, kTripleEvaluation,
       [&](std::int64_t, const std::int32_t* ids, std::int64_t count, ScalarSum& acc) {
         acc.value += lanes.triples(triples, ids, count);
       });
 }
 
 template <class Prepare>
-void PotentialObjective::evaluate_particles_vector(LoopRunner& run, Prepare& prepare) {
+void PotentialObjective::evaluate_particles_vector(LoopRunner& run, Prepare& prepare,
+                                                   LoopBytes bytes) {
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   const vector::ElementLanesKernels& lanes = vector::element_lanes_kernels();
@@ -361,7 +385,7 @@ void PotentialObjective::evaluate_particles_vector(LoopRunner& run, Prepare& pre
   const bool ghosts = mesh.ghost_count() > 0;
   const bool forced = !st.external_forces.empty();
   run.for_each_tile<GatherSums>(
-      ElementKind::particles, &gather_partials_,
+      ElementKind::particles, &gather_partials_, bytes,
       [&](std::int64_t tile, const std::int32_t* slots, std::int64_t count, GatherSums& acc) {
         const ObstacleMask mask = prepare(tile, acc);
         // The terms that stay scalar (ParticleLanesKernels::particles' `extra`), per position.
@@ -409,15 +433,16 @@ double PotentialObjective::update_direction(LoopRunner& run, double beta) {
 
 void PotentialObjective::move(LoopRunner& run, double delta) {
   ClothState& st = ctx_.state;
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
-    vec3(st.position, s) += delta * vec3(st.direction, s);
-  });
+  run.for_each(ElementKind::particles, kMoveBytes,
+               [&](std::int64_t s) { vec3(st.position, s) += delta * vec3(st.direction, s); });
   refresh_ghosts(run, ctx_.mesh, st.position);
 }
 
 void PotentialObjective::prepare_history(LoopRunner& run) {
   ClothState& st = ctx_.state;
-  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+  // The moment read, its two breakpoints written.
+  const LoopBytes breakpoint_bytes{.read = bytes::kDouble, .written = 2 * bytes::kDouble};
+  run.for_each(ElementKind::triples, breakpoint_bytes, [&](std::int64_t id) {
     bending_breakpoints(ctx_.material.bending[element_direction(id)], st.triple_moment[id],
                         &st.triple_breakpoints[2 * id]);
   });
@@ -427,12 +452,12 @@ void PotentialObjective::end_step(LoopRunner& run) {
   ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   // Each element term reads only its own previous force, so it can be replaced in place.
-  run.for_each(ElementKind::edges, [&](std::int64_t id) {
-    st.edge_force[id] = edge_term(ctx_, id, x).force;
-  });
-  run.for_each(ElementKind::triples, [&](std::int64_t id) {
-    st.triple_moment[id] = triple_term(ctx_, id, x).moment;
-  });
+  const LoopBytes edge_bytes{.read = kEdgeTermRead, .written = bytes::kDouble};
+  run.for_each(ElementKind::edges, edge_bytes,
+               [&](std::int64_t id) { st.edge_force[id] = edge_term(ctx_, id, x).force; });
+  const LoopBytes triple_bytes{.read = kTripleTermRead, .written = bytes::kDouble};
+  run.for_each(ElementKind::triples, triple_bytes,
+               [&](std::int64_t id) { st.triple_moment[id] = triple_term(ctx_, id, x).moment; });
   advance_position_history(run, st, ctx_.config.time, ctx_.dt());
 }
 

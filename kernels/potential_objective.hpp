@@ -99,7 +99,7 @@ class PotentialObjective final : public StepObjective {
   /// terms that stay scalar (contact with the obstacles `prepare` leaves in the tile's mask,
   /// scripted forces, ghost children), then the gather and the sums in SIMD lanes.
   template <class Prepare>
-  void evaluate_particles_vector(LoopRunner& run, Prepare& prepare);
+  void evaluate_particles_vector(LoopRunner& run, Prepare& prepare, LoopBytes bytes);
 
   StepContext ctx_;
   TilePartials<ScalarSum> edge_partials_;

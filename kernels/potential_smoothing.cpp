@@ -102,10 +102,18 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   const double g_ref = ctx_.gravity_reference();
-  run.for_each(ElementKind::particles, [&](std::int64_t s) { smoothing_moved_[s] = 0; });
+  constexpr double kMark = sizeof(int);  // smoothing_moved_'s entry
+  run.for_each(ElementKind::particles, LoopBytes{.written = kMark},
+               [&](std::int64_t s) { smoothing_moved_[s] = 0; });
   for (int sweep = 0; sweep < sweeps; ++sweep) {
+    // What every particle of a colour reads before it may leave: its slot, mass, and its last
+    // gradient (first sweep) or its own mark (later sweeps; its footprint's marks count where
+    // owned). One that moves also reads its neighbourhood's element data: the figure is the
+    // least.
+    const LoopBytes colour_bytes{.read =
+                                     2 * bytes::kDouble + (sweep == 0 ? bytes::kVector3 : kMark)};
     for (const std::vector<std::int64_t>& colour : smoothing_lists_) {
-      run.for_index(static_cast<std::int64_t>(colour.size()), [&](std::int64_t k) {
+      run.for_index(static_cast<std::int64_t>(colour.size()), colour_bytes, [&](std::int64_t k) {
         const std::int64_t s = colour[k];
         const double weight = mesh.mass[s] * g_ref;
         if (sweep == 0) {
@@ -139,7 +147,7 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
       refresh_ghosts(run, mesh, st.position);
     }
   }
-  run.for_each<ScalarSum>(ElementKind::particles, &scalar_partials_,
+  run.for_each<ScalarSum>(ElementKind::particles, &scalar_partials_, LoopBytes{.read = kMark},
                           [&](std::int64_t s, ScalarSum& acc) {
                             if (smoothing_moved_[s] > 0) acc.value += 1.0;
                           });

@@ -224,7 +224,8 @@ void Simulation::rescale_velocity(LoopRunner& run, double from, double to) {
   // target - x^n = keep(from) v from; the step of length `to` wants keep(to) v to.
   const double factor =
       to / from * velocity_keep(config_.time, to) / velocity_keep(config_.time, from);
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  const LoopBytes rescale_bytes{.read = 2 * bytes::kVector3, .written = bytes::kVector3};
+  run.for_each(ElementKind::particles, rescale_bytes, [&](std::int64_t s) {  // x~, x^n; x~
     auto target = vec3(state_.target, s);
     const auto start = vec3(state_.step_start, s);
     target = start + factor * (target - start);

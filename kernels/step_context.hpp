@@ -110,6 +110,13 @@ inline ContactPenalty contact_penalty(const StepContext& ctx, std::int64_t s,
   return c;
 }
 
+/// LoopBytes (loop_bytes.hpp) of a loop setting every free particle's initial guess: flags
+/// and x~ read, x written.
+inline constexpr LoopBytes kInitialGuessBytes{.read = bytes::kFlag + bytes::kVector3,
+                                              .written = bytes::kVector3};
+/// LoopBytes of a move along the direction, x += delta d: x and d read, x written.
+inline constexpr LoopBytes kMoveBytes{.read = 2 * bytes::kVector3, .written = bytes::kVector3};
+
 /// The step's initial guess for particle s: the inertial target x~, projected out of any
 /// obstacle to `layer` times the contact distance (a falling particle's x~ can lie deep inside
 /// an obstacle, where the penalty would start the minimisation from a huge residual). The
@@ -156,7 +163,11 @@ inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_
 /// parents. Skipped entirely on a mesh without ghosts (no loop, no barrier).
 inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::vector<double>& values) {
   if (mesh.ghost_count() == 0) return;
-  run.for_each(ElementKind::ghosts,
+  // Per ghost: its flags, prev and next along its direction and both parents' values (in
+  // full: the loop does not visit their owners) read; its own value written.
+  const LoopBytes ghost_bytes{.read = bytes::kFlag + 2 * bytes::kIndex + 2 * bytes::kVector3,
+                              .written = bytes::kVector3};
+  run.for_each(ElementKind::ghosts, ghost_bytes,
                [&](std::int64_t g) { vec3(values, g) = node_value(mesh, values, g); });
 }
 
@@ -171,7 +182,9 @@ inline double velocity_keep(const TimeConfig& time, double h) {
 inline void advance_position_history(LoopRunner& run, ClothState& st, const TimeConfig& time,
                                      double h) {
   const double keep = velocity_keep(time, h);
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  // x and x^n read; x~ and x^n written.
+  const LoopBytes history_bytes{.read = 2 * bytes::kVector3, .written = 2 * bytes::kVector3};
+  run.for_each(ElementKind::particles, history_bytes, [&](std::int64_t s) {
     const Eigen::Vector3d xs = vec3(st.position, s);
     vec3(st.target, s) = xs + keep * (xs - vec3(st.step_start, s));
     vec3(st.step_start, s) = xs;
@@ -194,14 +207,18 @@ struct ScalarSum {
 inline void update_position_direction(LoopRunner& run, ClothState& st, double beta,
                                       TilePartials<ScalarSum>& partials,
                                       const std::vector<double>* z = nullptr) {
-  run.for_each<ScalarSum>(ElementKind::particles, &partials, [&](std::int64_t s, ScalarSum& acc) {
-    const Eigen::Vector3d g = vec3(st.gradient, s);
-    auto dir = vec3(st.direction, s);
-    dir = -(z != nullptr ? Eigen::Vector3d(vec3(*z, s)) : apply_symmetric(st.preconditioner, s, g)) +
-          beta * dir;
-    vec3(st.gradient_old, s) = g;
-    acc.value += dir.dot(g);
-  });
+  // g, d and P^-1 g (the block, or z: 24 B either way) read; d and g_old written.
+  const LoopBytes direction_bytes{.read = 3 * bytes::kVector3, .written = 2 * bytes::kVector3};
+  run.for_each<ScalarSum>(ElementKind::particles, &partials, direction_bytes,
+                          [&](std::int64_t s, ScalarSum& acc) {
+                            const Eigen::Vector3d g = vec3(st.gradient, s);
+                            auto dir = vec3(st.direction, s);
+                            dir = -(z != nullptr ? Eigen::Vector3d(vec3(*z, s))
+                                                 : apply_symmetric(st.preconditioner, s, g)) +
+                                  beta * dir;
+                            vec3(st.gradient_old, s) = g;
+                            acc.value += dir.dot(g);
+                          });
 }
 
 }  // namespace clothbench::kernels

@@ -8,6 +8,8 @@
 #include <numeric>
 #include <utility>
 
+#include "kernels/vcycle_loop_bytes.hpp"
+
 namespace clothbench::kernels {
 
 namespace {
@@ -69,7 +71,7 @@ void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
   auto sweep = [&](int d, int colour) {
     const Lines& l = level.lines[d];
     const std::int64_t b = l.colour_start[colour];
-    run.for_index(l.colour_start[colour + 1] - b,
+    run.for_index(l.colour_start[colour + 1] - b, vcycle_bytes::line_sweep(level, d),
                   [&](std::int64_t k) { update_line(level, d, l.by_colour[b + k]); });
   };
   if (forward) {
@@ -102,17 +104,19 @@ void VcyclePreconditioner::cycle(LoopRunner& run, std::size_t k) {
     }
     return;
   }
-  run.for_index(nodes, [&](std::int64_t a) {
+  run.for_index(nodes, LoopBytes{.written = bytes::kVector3}, [&](std::int64_t a) {
     for (int c = 0; c < 3; ++c) level.x[3 * a + c] = 0.0;
   });
   smooth(run, level, true);
   const BlockRows& a = level.a;
-  run.for_index(nodes, [&](std::int64_t node) {
+  run.for_index(nodes, vcycle_bytes::residual(level), [&](std::int64_t node) {
     block_residual(a.start.data(), a.col.data(), a.value.data(), node, level.x.data(),
                    level.b.data(), level.res.data() + 3 * node);
   });
   Level& coarse = levels_[k + 1];
-  run.for_index(static_cast<std::int64_t>(coarse.i.size()), [&](std::int64_t c) {
+  const LoopBytes restrict_bytes =
+      vcycle_bytes::transfer(level.r, level.i.size(), coarse.i.size(), false);
+  run.for_index(static_cast<std::int64_t>(coarse.i.size()), restrict_bytes, [&](std::int64_t c) {
     double sum[3] = {0.0, 0.0, 0.0};
     for (std::int64_t e = level.r.start[c]; e < level.r.start[c + 1]; ++e) {
       const double w = level.r.weight[e];
@@ -122,7 +126,9 @@ void VcyclePreconditioner::cycle(LoopRunner& run, std::size_t k) {
     for (int q = 0; q < 3; ++q) coarse.b[3 * c + q] = sum[q];
   });
   cycle(run, k + 1);
-  run.for_index(nodes, [&](std::int64_t node) {
+  const LoopBytes prolong_bytes =
+      vcycle_bytes::transfer(level.p, coarse.i.size(), level.i.size(), true);
+  run.for_index(nodes, prolong_bytes, [&](std::int64_t node) {
     double sum[3] = {0.0, 0.0, 0.0};
     for (std::int64_t e = level.p.start[node]; e < level.p.start[node + 1]; ++e) {
       const double w = level.p.weight[e];
@@ -138,15 +144,17 @@ void VcyclePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
                                  const std::vector<double>& r, std::vector<double>& out) {
   Level& fine = levels_.front();
   const std::int64_t nodes = static_cast<std::int64_t>(fine.i.size());
-  run.for_index(nodes, [&](std::int64_t a) {
+  // The node's slot and one vector read, the other written.
+  const LoopBytes copy{.read = vcycle_bytes::kOffset + bytes::kVector3, .written = bytes::kVector3};
+  run.for_index(nodes, copy, [&](std::int64_t a) {
     const std::int64_t s = slot_of_node_[a];
     for (int c = 0; c < 3; ++c) fine.b[3 * a + c] = r[3 * s + c];
   });
   cycle(run, 0);
-  run.for_each(ElementKind::particles, [&](std::int64_t s) {
+  run.for_each(ElementKind::particles, LoopBytes{.written = bytes::kVector3}, [&](std::int64_t s) {
     for (int c = 0; c < 3; ++c) out[3 * s + c] = 0.0;
   });
-  run.for_index(nodes, [&](std::int64_t a) {
+  run.for_index(nodes, copy, [&](std::int64_t a) {
     const std::int64_t s = slot_of_node_[a];
     for (int c = 0; c < 3; ++c) out[3 * s + c] = fine.x[3 * a + c];
   });

@@ -10,6 +10,8 @@
 
 #include "kernels/vcycle_preconditioner.hpp"
 
+#include "kernels/vcycle_loop_bytes.hpp"
+
 namespace clothbench::kernels {
 
 namespace {
@@ -401,7 +403,15 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
   // Level 0's values, row by row (ModelHessian::sum_row).
   {
     BlockRows& a = levels_.front().a;
-    run.for_index(static_cast<std::int64_t>(a.start.size()) - 1, [&](std::int64_t row) {
+    const std::size_t rows = a.start.size() - 1;
+    // Per row: its slot and unknown, the particle's model data (ModelHessian::kRowRead) and
+    // the row's columns read; its blocks written.
+    const auto blocks = static_cast<double>(a.col.size());
+    const LoopBytes row_bytes{
+        .read = 2 * vcycle_bytes::kOffset + ModelHessian::kRowRead +
+                vcycle_bytes::per_index(vcycle_bytes::kOffset * blocks, rows),
+        .written = vcycle_bytes::per_index(9 * bytes::kDouble * blocks, rows)};
+    run.for_index(static_cast<std::int64_t>(rows), row_bytes, [&](std::int64_t row) {
       hessian.sum_row(ctx, unknown_, slot_of_node_[row], a.col.data() + a.start[row],
                       a.start[row + 1] - a.start[row], a.value.data() + 9 * a.start[row]);
     });
@@ -414,7 +424,8 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
       row_cols_.resize(static_cast<std::size_t>(rows));
     }
     auto rows_of = [&](bool columns) {
-      run.for_index(rows, [&](std::int64_t row) {
+      const LoopBytes row_bytes = vcycle_bytes::galerkin(levels_[k], levels_[k + 1], !columns);
+      run.for_index(rows, row_bytes, [&](std::int64_t row) {
         galerkin_row(k, row, accumulators_[static_cast<std::size_t>(omp_get_thread_num())],
                      columns);
       });
@@ -470,6 +481,7 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
     for (int d = 0; d < 2; ++d) {
       Level& level = levels_[k];
       run.for_index(static_cast<std::int64_t>(level.lines[d].start.size()) - 1,
+                    vcycle_bytes::line_factor(level, d),
                     [&](std::int64_t line) { factor_line(level, d, line); });
     }
   }

@@ -50,7 +50,7 @@ void ViolationObjective::begin_step(LoopRunner& run) {
   prepare_history(run);
   // Positions start at the inertial target; forces keep their previous values (warm start).
   run.for_each_prepared(
-      ElementKind::particles,
+      ElementKind::particles, kInitialGuessBytes,
       [&](std::int64_t tile) {  // broad phase of the targets the projection starts from
         return ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.target).mask : kEveryObstacle;
       },
@@ -66,19 +66,25 @@ void ViolationObjective::element_loops(LoopRunner& run, TilePartials<ScalarSum>*
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  run.for_each<ScalarSum>(ElementKind::edges, edge_partials, [&](std::int64_t id, ScalarSum& acc) {
-    const double t = st.edge_force[id];
-    const EdgeViolation ev = edge_violation(ctx_, id, x, t);
-    st.edge_scratch[id] = ev.length > 0.0 ? mesh.edge_width[id] * t / ev.length : 0.0;
-    const double ref = scales_.tension[element_direction(id)];
-    const double ratio = ev.band.value / ref;
-    acc.value += ratio * ratio;
-    const double k = scales_.stretch * 2.0 * ev.band.value / (ref * ref);
-    vs_.edge_band[2 * id] = k * ev.band.d_force;
-    vs_.edge_band[2 * id + 1] = k * ev.band.d_strain / mesh.edge_rest[id];
-  });
+  // Per element: the term's reads (a triple's without the breakpoints) and the scratch (1 or
+  // 3) and band terms (2) written.
+  const LoopBytes edge_bytes{.read = kEdgeTermRead, .written = 3 * bytes::kDouble};
+  const LoopBytes triple_bytes{.read = kTripleTermRead - 2 * bytes::kDouble,
+                               .written = 5 * bytes::kDouble};
   run.for_each<ScalarSum>(
-      ElementKind::triples, triple_partials, [&](std::int64_t id, ScalarSum& acc) {
+      ElementKind::edges, edge_partials, edge_bytes, [&](std::int64_t id, ScalarSum& acc) {
+        const double t = st.edge_force[id];
+        const EdgeViolation ev = edge_violation(ctx_, id, x, t);
+        st.edge_scratch[id] = ev.length > 0.0 ? mesh.edge_width[id] * t / ev.length : 0.0;
+        const double ref = scales_.tension[element_direction(id)];
+        const double ratio = ev.band.value / ref;
+        acc.value += ratio * ratio;
+        const double k = scales_.stretch * 2.0 * ev.band.value / (ref * ref);
+        vs_.edge_band[2 * id] = k * ev.band.d_force;
+        vs_.edge_band[2 * id + 1] = k * ev.band.d_strain / mesh.edge_rest[id];
+      });
+  run.for_each<ScalarSum>(
+      ElementKind::triples, triple_partials, triple_bytes, [&](std::int64_t id, ScalarSum& acc) {
         const double moment = st.triple_moment[id];
         const TripleViolation tv = triple_violation(ctx_, id, x, moment);
         const double wm = mesh.triple_width[id] * moment;
@@ -118,8 +124,12 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
     acc.contact_skipped += c.skipped;
     return c.mask;
   };
+  // Flags, mass, x~ and the gather (x included) read; rho and g written.
+  const LoopBytes residual_bytes{
+      .read = bytes::kFlag + bytes::kDouble + bytes::kVector3 + kGatherElasticRead,
+      .written = 2 * bytes::kVector3};
   run.for_each_prepared<ResidualSums>(
-      ElementKind::particles, &residual_partials_, prepare,
+      ElementKind::particles, &residual_partials_, residual_bytes, prepare,
       [&](std::int64_t s, ResidualSums& acc, ObstacleMask mask) {
         auto r_bar = vec3(vs_.rho, s);
         auto g = vec3(st.gradient, s);
@@ -153,9 +163,14 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
   // A ghost's residual is handed half to each parent, so its adjoint is the parents' mean.
   refresh_ghosts(run, mesh, vs_.rho);
 
-  // 4: dE/dt and the edges' position contributions.
+  // 4: dE/dt and the edges' position contributions. next, the shares of x and rho, band (2),
+  // width, force, inverse, direction and old gradient read; the contribution (3) and the
+  // gradient written.
+  const LoopBytes edge_cg_bytes{.read = bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3 +
+                                        bytes::kFloat + 6 * bytes::kDouble,
+                                .written = 4 * bytes::kDouble};
   run.for_each<CgSums>(
-      ElementKind::edges, &edge_cg_partials_, [&](std::int64_t id, CgSums& acc) {
+      ElementKind::edges, &edge_cg_partials_, edge_cg_bytes, [&](std::int64_t id, CgSums& acc) {
         double gt;
         if (numeric) {
           gt = numeric_edge_gradient(ctx_, scales_, id);
@@ -184,8 +199,15 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
       });
 
   // 5: dE/dM and the triples' position contributions (Hessian of theta times rho by duals).
+  // prev, next, the shares of x and rho, band (2), width, moment, inverse, direction and old
+  // gradient read; the contributions (6) and the gradient written.
+  const LoopBytes triple_cg_bytes{.read = 2 * bytes::kIndex +
+                                          2 * bytes::kSlotShare * bytes::kVector3 + bytes::kFloat +
+                                          6 * bytes::kDouble,
+                                  .written = 7 * bytes::kDouble};
   run.for_each<CgSums>(
-      ElementKind::triples, &triple_cg_partials_, [&](std::int64_t id, CgSums& acc) {
+      ElementKind::triples, &triple_cg_partials_, triple_cg_bytes,
+      [&](std::int64_t id, CgSums& acc) {
         double gm;
         if (numeric) {
           gm = numeric_triple_gradient(ctx_, scales_, id);
@@ -227,9 +249,17 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
         acc.grad_old_dot_z += vs_.triple_gradient_old[id] * z;
       });
 
-  // 6: gather dE/dx (own terms from loop 3 plus every incident element, fixed order).
+  // 6: gather dE/dx (own terms from loop 3 plus every incident element, fixed order). Flags
+  // and g, of its slot's two ids next, prev, both flags, the edge's contribution (3) and the
+  // triple's (6), then P^-1, d and g_old read; g written.
+  const LoopBytes gather_bytes{
+      .read = bytes::kFlag + bytes::kVector3 +
+              bytes::kIdsPerSlot * (2 * bytes::kIndex + 2 * bytes::kFlag + 9 * bytes::kDouble) +
+              bytes::kBlockF + 2 * bytes::kVector3,
+      .written = bytes::kVector3};
   run.for_each<CgSums>(
-      ElementKind::particles, &particle_cg_partials_, [&](std::int64_t s, CgSums& acc) {
+      ElementKind::particles, &particle_cg_partials_, gather_bytes,
+      [&](std::int64_t s, CgSums& acc) {
         auto g = vec3(st.gradient, s);
         if (!ctx_.is_free(s)) return;  // zeroed by loop 3
         if (numeric) {
@@ -378,8 +408,15 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
     const double mg = mesh.mass[j] * g_ref;
     return 2.0 * scales_.newton / (mg * mg);
   };
+  // Flags, and for the block: mass, x, and of its slot's two ids next, prev, both flags,
+  // force, moment, edge rest and width, triple rest read; the inverse (float) written.
+  const double block_read = bytes::kDouble + bytes::kVector3 +
+                            bytes::kIdsPerSlot * (2 * bytes::kIndex + 2 * bytes::kFlag +
+                                                  2 * bytes::kDouble + 3 * bytes::kFloat);
+  const LoopBytes block_bytes{.read = bytes::kFlag + (block_jacobi ? block_read : 0.0),
+                              .written = bytes::kBlockF};
   run.for_each_prepared(
-      ElementKind::particles,
+      ElementKind::particles, block_bytes,
       [&](std::int64_t tile) {
         return block_jacobi && ctx_.broad_phase() ? ctx_.tile_contacts(tile, st.position).mask
                                                   : kEveryObstacle;
@@ -393,8 +430,16 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
         store_symmetric(st.preconditioner, s, inverse);
       });
   // Forces: scaled by their references, or the Gauss-Newton diagonal of E (the support
-  // projections are left out of the force diagonals).
-  run.for_each(ElementKind::edges, [&](std::int64_t id) {
+  // projections are left out of the force diagonals). Per element: width, its nodes (next;
+  // a triple's prev, rest, moment and positions' share too) and their weights' flags and
+  // masses (a slot's share each) read; the inverse written.
+  const double weights = block_jacobi ? bytes::kSlotShare * (bytes::kFlag + bytes::kDouble) : 0.0;
+  const LoopBytes edge_bytes{.read = bytes::kFloat + bytes::kIndex + weights,
+                             .written = bytes::kDouble};
+  const LoopBytes triple_bytes{.read = 2 * bytes::kIndex + bytes::kSlotShare * bytes::kVector3 +
+                                       2 * bytes::kFloat + bytes::kDouble + weights,
+                               .written = bytes::kDouble};
+  run.for_each(ElementKind::edges, edge_bytes, [&](std::int64_t id) {
     const double ref = scales_.tension[element_direction(id)];
     if (!block_jacobi) {
       vs_.edge_inverse[id] = ref * ref;
@@ -406,7 +451,7 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
         (2.0 * scales_.stretch + 1e-6) / (ref * ref);
     vs_.edge_inverse[id] = 1.0 / diagonal;
   });
-  run.for_each(ElementKind::triples, [&](std::int64_t id) {
+  run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     const double ref = scales_.moment[element_direction(id)];
     if (!block_jacobi) {
       vs_.triple_inverse[id] = ref * ref;
@@ -439,12 +484,14 @@ double ViolationObjective::update_direction(LoopRunner& run, double beta) {
     old[id] = g;
     acc.value += direction[id] * g;
   };
-  run.for_each<ScalarSum>(ElementKind::edges, &edge_dir_partials_,
+  // Gradient, direction and inverse read; direction and old gradient written.
+  const LoopBytes scalar_bytes{.read = 3 * bytes::kDouble, .written = 2 * bytes::kDouble};
+  run.for_each<ScalarSum>(ElementKind::edges, &edge_dir_partials_, scalar_bytes,
                           [&](std::int64_t id, ScalarSum& acc) {
                             scalar_update(vs_.edge_gradient, vs_.edge_gradient_old,
                                           vs_.edge_direction, vs_.edge_inverse, id, acc);
                           });
-  run.for_each<ScalarSum>(ElementKind::triples, &triple_dir_partials_,
+  run.for_each<ScalarSum>(ElementKind::triples, &triple_dir_partials_, scalar_bytes,
                           [&](std::int64_t id, ScalarSum& acc) {
                             scalar_update(vs_.triple_gradient, vs_.triple_gradient_old,
                                           vs_.triple_direction, vs_.triple_inverse, id, acc);
@@ -455,12 +502,14 @@ double ViolationObjective::update_direction(LoopRunner& run, double beta) {
 
 void ViolationObjective::move(LoopRunner& run, double delta) {
   ClothState& st = ctx_.state;
-  run.for_each(ElementKind::particles,
+  run.for_each(ElementKind::particles, kMoveBytes,
                [&](std::int64_t s) { vec3(st.position, s) += delta * vec3(st.direction, s); });
   refresh_ghosts(run, ctx_.mesh, st.position);
-  run.for_each(ElementKind::edges,
+  // The force or moment and its direction read, the force or moment written.
+  const LoopBytes force_bytes{.read = 2 * bytes::kDouble, .written = bytes::kDouble};
+  run.for_each(ElementKind::edges, force_bytes,
                [&](std::int64_t id) { st.edge_force[id] += delta * vs_.edge_direction[id]; });
-  run.for_each(ElementKind::triples,
+  run.for_each(ElementKind::triples, force_bytes,
                [&](std::int64_t id) { st.triple_moment[id] += delta * vs_.triple_direction[id]; });
 }
 

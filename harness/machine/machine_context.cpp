@@ -198,6 +198,12 @@ int hardware_threads() {
   return std::max(1u, std::thread::hardware_concurrency());
 }
 
+int physical_cores() {
+  const Topology topology;
+  const int cores = topology.count(HWLOC_OBJ_CORE);
+  return cores > 0 ? cores : hardware_threads();
+}
+
 std::uint64_t total_memory_bytes() {
   // The kernel's count of physical pages is the memory a run can have; hwloc's NUMA figure can
   // be smaller on virtual machines (seen: 5.85 GB of 24 GB) and is only the fallback. A cgroup

@@ -35,6 +35,9 @@ std::string version_string();
 /// Hardware threads (hwloc PUs; std::thread::hardware_concurrency if hwloc fails), >= 1.
 int hardware_threads();
 
+/// Physical cores (hwloc; hardware_threads() if hwloc finds none), >= 1.
+int physical_cores();
+
 /// Installed memory in bytes (hwloc; sysconf if hwloc fails).
 std::uint64_t total_memory_bytes();
 

@@ -1,5 +1,8 @@
 // Gradient evaluation of the cloth kernel at 101^2, 301^2 and 1001^2 particles, with a
-// STREAM-style triad in the same binary so the roofline is measured in the same run. Two
+// STREAM-style triad in the same binary so the roofline is measured in the same run. The triad
+// runs at every thread count from 1 to the machine's physical cores: its JSON is what
+// `clothbench predict --bandwidth` and `run|sweep --trace-bandwidth` read for the predictor's
+// memory-bandwidth ceiling (harness/predict/bandwidth_model.hpp). Two
 // variants: `potential` (the scalar reference element loops) and `potential_vector`
 // (ElementKernel::vector, SIMD lanes of the widest instruction set of this CPU, named in the
 // label); compare them as a ratio of ns_per_element within one run.
@@ -15,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/machine/machine_context.hpp"
 #include "harness/micro/box_scene.hpp"
 #include "harness/micro/smoke.hpp"
 #include "kernels/simulation.hpp"
@@ -75,6 +79,9 @@ void gradient(benchmark::State& state, Formulation formulation, ElementKernel ke
   state.counters["threads"] = threads;
 }
 
+/// a[i] = b[i] + s c[i] over three arrays of n doubles (far larger than the caches unless
+/// CLOTHBENCH_MICRO_SMOKE) at `threads` threads: bytes_per_second counts 24 B per element, as
+/// STREAM does (no write-allocate traffic).
 void triad(benchmark::State& state) {
   const auto n = static_cast<std::size_t>(state.range(0));
   const int threads = static_cast<int>(state.range(1));
@@ -109,6 +116,14 @@ BENCHMARK_CAPTURE(gradient, potential, Formulation::potential, ElementKernel::re
     ->Apply(gradient_sizes);
 BENCHMARK_CAPTURE(gradient, potential_vector, Formulation::potential, ElementKernel::vector)
     ->Apply(gradient_sizes);
-BENCHMARK(triad)->Args({clothbench::micro::scaled(1 << 24, 1 << 12), 1})->UseRealTime()->Unit(benchmark::kMillisecond);
+
+/// The triad at every thread count from 1 to the physical cores (the predictor's B(P)).
+void triad_threads(benchmark::internal::Benchmark* b) {
+  const std::int64_t n = clothbench::micro::scaled(1 << 24, 1 << 12);
+  const int cores = clothbench::harness::physical_cores();
+  for (int threads = 1; threads <= cores; ++threads) b->Args({n, threads});
+  b->UseRealTime()->Unit(benchmark::kMillisecond);
+}
+BENCHMARK(triad)->Apply(triad_threads);
 
 }  // namespace

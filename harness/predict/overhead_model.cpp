@@ -4,10 +4,11 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <vector>
+
+#include "harness/predict/benchmark_file.hpp"
 
 namespace clothbench::harness {
 
@@ -47,19 +48,7 @@ std::string OverheadModel::dispatch_source(const std::string& canonical) const {
 }
 
 OverheadModel read_overhead_model(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw std::invalid_argument(file.string() + ": cannot open the overheads file");
-  nlohmann::json document;
-  try {
-    document = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& error) {
-    throw std::invalid_argument(file.string() + ": not JSON: " + error.what());
-  }
-  if (!document.is_object() || !document.contains("benchmarks") ||
-      !document["benchmarks"].is_array()) {
-    throw std::invalid_argument(file.string() +
-                                ": not Google Benchmark JSON (no \"benchmarks\" array)");
-  }
+  const nlohmann::json document = read_benchmark_file(file, "overheads file");
   struct Figures {
     double loop_seconds;
     double chunks_per_thread;
@@ -152,14 +141,6 @@ nlohmann::json overhead_model_json(const OverheadModel& model) {
           {"loop_seconds_at_measured_threads", model.loop_seconds_at_measured},
           {"dispatch_seconds", model.dispatch_seconds},
           {"disturbed", model.disturbed}};
-}
-
-nlohmann::json trace_overheads_header(const std::filesystem::path& file) {
-  try {
-    return overhead_model_json(read_overhead_model(file));
-  } catch (const std::invalid_argument& error) {
-    throw std::invalid_argument(std::string("--trace-overheads: ") + error.what());
-  }
 }
 
 OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::string& origin) {

@@ -57,9 +57,6 @@ OverheadModel read_overhead_model(const std::filesystem::path& file);
 
 /// The model as stored in a trace's header ("overheads"): every figure and the source text.
 nlohmann::json overhead_model_json(const OverheadModel& model);
-/// `run|sweep --trace-overheads FILE`: the model read from FILE (read_overhead_model), as the
-/// trace header stores it. Throws std::invalid_argument naming the flag and the file.
-nlohmann::json trace_overheads_header(const std::filesystem::path& file);
 /// Reads what overhead_model_json wrote; `origin` (e.g. "TRACE's header") prefixes the source
 /// text. Throws std::invalid_argument naming `origin` when a figure is missing or not a number.
 OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::string& origin);

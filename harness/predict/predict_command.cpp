@@ -44,6 +44,11 @@ PredictCommand::PredictCommand(CLI::App& app) : schedulers_(kPaperSchedulers) {
                        "--benchmark_out=FILE; what P threads cost beyond 1 thread is added "
                        "above 1 thread (default: the trace's stored costs, else zero; the output "
                        "says which)");
+  command_->add_option("--bandwidth", bandwidth_file_,
+                       "STREAM triad at 1..cores threads: clothbench-micro "
+                       "--benchmark_filter=^triad --benchmark_format=json --benchmark_out=FILE; "
+                       "a loop takes at least its bytes / the triad at P threads (default: the "
+                       "trace's stored triad, else no ceiling; the output says which)");
   command_->add_option("--out", out_dir_,
                        "Write prediction.json, table.md and fig12.{dat,gp,png} here");
   command_->add_option("--json", json_file_, "Also write the result as JSON to this file");
@@ -62,7 +67,13 @@ int PredictCommand::run() {
   } catch (const std::invalid_argument& error) {
     return bad(fmt::format("--overheads: {}", error.what()));
   }
-  if (!validate_file_.empty()) return run_validation(given);
+  std::optional<BandwidthModel> bandwidth;  // --bandwidth; else the trace's triad, else none
+  try {
+    if (!bandwidth_file_.empty()) bandwidth = read_bandwidth_model(bandwidth_file_);
+  } catch (const std::invalid_argument& error) {
+    return bad(fmt::format("--bandwidth: {}", error.what()));
+  }
+  if (!validate_file_.empty()) return run_validation(given, bandwidth);
   if (trace_file_.empty()) return bad("TRACE: a trace file is required (or --validate SWEEP.json)");
   std::vector<int> threads;
   std::vector<std::string> schedulers;
@@ -94,7 +105,7 @@ int PredictCommand::run() {
   Prediction prediction;
   try {
     prediction = predict(workload, trace_file_.string(), schedulers, threads,
-                         choose_overheads(given, workload));
+                         choose_overheads(given, workload), choose_bandwidth(bandwidth, workload));
   } catch (const std::invalid_argument& error) {
     return bad(fmt::format("--schedulers: {}", error.what()));
   }
@@ -114,7 +125,8 @@ int PredictCommand::run() {
   return 0;
 }
 
-int PredictCommand::run_validation(const std::optional<OverheadModel>& given) {
+int PredictCommand::run_validation(const std::optional<OverheadModel>& given,
+                                   const std::optional<BandwidthModel>& bandwidth) {
   if (trace_dir_.empty() && from_file_.empty()) {
     return bad("--validate: needs --trace-dir DIR (the sweep's --trace DIR) or --from TRACE");
   }
@@ -128,8 +140,8 @@ int PredictCommand::run_validation(const std::optional<OverheadModel>& given) {
   try {
     validation = validate_prediction(
         sweep, validate_file_.string(), trace_dir_,
-        from_file_.empty() ? std::nullopt : std::optional<std::filesystem::path>(from_file_),
-        given);
+        from_file_.empty() ? std::nullopt : std::optional<std::filesystem::path>(from_file_), given,
+        bandwidth);
   } catch (const std::invalid_argument& error) {
     return bad(error.what());
   }

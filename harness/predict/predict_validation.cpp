@@ -38,7 +38,8 @@ Source load_source(const std::filesystem::path& file) {
 Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
                                const std::filesystem::path& trace_dir,
                                const std::optional<std::filesystem::path>& from,
-                               const std::optional<OverheadModel>& overheads) {
+                               const std::optional<OverheadModel>& overheads,
+                               const std::optional<BandwidthModel>& bandwidth) {
   Validation v;
   v.sweep_file = sweep_file;
   if (sweep.contains("machine") && sweep["machine"].contains("load_average") &&
@@ -70,6 +71,7 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
   }
   // The traces of one sweep were written with the same --trace-overheads (or none).
   v.overheads = choose_overheads(overheads, sources.front()->workload);
+  v.bandwidth = choose_bandwidth(bandwidth, sources.front()->workload);
   auto choose = [&](schedulers::IterationSpace space) -> const Source* {
     const Source* best = nullptr;
     for (const auto& s : sources) {
@@ -99,11 +101,14 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
       const ScheduleModel model =
           ScheduleModel::parse(out.scheduler, runtime_model(source->workload.openmp_runtime));
       const PredictedRow p = predict_row(source->workload, model, out.threads,
-                                         choose_overheads(overheads, source->workload));
+                                         choose_overheads(overheads, source->workload),
+                                         choose_bandwidth(bandwidth, source->workload));
       out.source = source->file.filename().string();
       out.predicted_time = p.time;
       out.predicted_imbalance_percent = p.imbalance_percent;
       out.error_percent = 100.0 * (p.time - out.measured_time) / out.measured_time;
+      out.bandwidth_bound_loops = p.bandwidth_bound_loops;
+      out.bandwidth_added_seconds = p.bandwidth_added_seconds;
       v.rows.push_back(out);
     } catch (const std::invalid_argument& error) {
       v.skipped.push_back(fmt::format("{} x {}: {}", out.scheduler, out.threads, error.what()));
@@ -115,19 +120,23 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
 std::string format_validation_markdown(const Validation& v) {
   std::ostringstream out;
   out << fmt::format("# Predicted vs measured: {}\n\n", v.sweep_file);
-  out << fmt::format("Sweep load average at its start: {}. Overheads: {}.\n\n",
-                     v.machine_load.empty() ? "not recorded" : v.machine_load, v.overheads.source);
+  out << fmt::format(
+      "Sweep load average at its start: {}. Overheads: {}. Bandwidth ceiling: {}.\n\n",
+      v.machine_load.empty() ? "not recorded" : v.machine_load, v.overheads.source,
+      v.bandwidth.source);
   out << "| Scheduler | Threads | Predicted from | Predicted time [s] | Measured time [s] | "
-         "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing |\n";
-  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|\n";
+         "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing | "
+         "Bandwidth-bound loops | Bandwidth added [s] |\n";
+  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|--:|--:|\n";
   double sum = 0.0, worst = 0.0;
   for (const ValidationRow& r : v.rows) {
     out << fmt::format(
-        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} |\n", r.scheduler, r.threads,
-        r.source, r.predicted_time, r.measured_time, r.error_percent, r.predicted_imbalance_percent,
+        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} | {} | {:.4f} |\n",
+        r.scheduler, r.threads, r.source, r.predicted_time, r.measured_time, r.error_percent,
+        r.predicted_imbalance_percent,
         r.measured_imbalance_percent ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
                                      : std::string("-"),
-        r.disturbed ? "DISTURBED" : "clean");
+        r.disturbed ? "DISTURBED" : "clean", r.bandwidth_bound_loops, r.bandwidth_added_seconds);
     sum += std::abs(r.error_percent);
     worst = std::max(worst, std::abs(r.error_percent));
   }
@@ -150,15 +159,18 @@ nlohmann::json validation_json(const Validation& v) {
                     {"error_percent", r.error_percent},
                     {"predicted_imbalance_percent", r.predicted_imbalance_percent},
                     {"measured_disturbed", r.disturbed},
+                    {"bandwidth_bound_loops", r.bandwidth_bound_loops},
+                    {"bandwidth_added_seconds", r.bandwidth_added_seconds},
                     {"measured_imbalance_percent",
                      r.measured_imbalance_percent ? nlohmann::json(*r.measured_imbalance_percent)
                                                   : nlohmann::json()}});
   }
   return {{"schema", "clothbench-prediction-validation"},
-          {"schema_version", 1},
+          {"schema_version", 2},
           {"sweep", v.sweep_file},
           {"machine_load", v.machine_load},
           {"overheads", v.overheads.source},
+          {"bandwidth", v.bandwidth.source},
           {"rows", rows},
           {"skipped", v.skipped}};
 }

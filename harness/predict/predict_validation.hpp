@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/predict/bandwidth_model.hpp"
 #include "harness/predict/overhead_model.hpp"
 
 namespace clothbench::harness {
@@ -24,6 +25,8 @@ struct ValidationRow {
   double predicted_imbalance_percent = 0.0;
   std::optional<double> measured_imbalance_percent;  ///< none when the sweep was not instrumented
   bool disturbed = false;  ///< the sweep labelled the row DISTURBED (other work took the cores)
+  std::int64_t bandwidth_bound_loops = 0;  ///< loop instances the bandwidth ceiling lengthened
+  double bandwidth_added_seconds = 0.0;    ///< what it added to the predicted time
 };
 
 /// The whole validation.
@@ -33,18 +36,21 @@ struct Validation {
   std::vector<ValidationRow> rows;
   std::vector<std::string> skipped;  ///< rows that could not be predicted, with the reason
   OverheadModel overheads;
+  BandwidthModel bandwidth;
 };
 
 /// Predicts every row of `sweep` (a loaded sweep document) that has a measured time. The
 /// source trace of a row: `from` when given, else the 1-thread trace in `trace_dir` with the
 /// most chunks over the row's iteration space (the finest per-iteration costs), else one over
 /// blocks. Costs: `overheads` when given, else each source trace's stored ones, else zero
-/// (Validation::overheads: those of the first row). Throws std::invalid_argument when `trace_dir`
+/// (Validation::overheads: those of the first row); the bandwidth ceiling likewise from
+/// `bandwidth` or the traces' stored triad. Throws std::invalid_argument when `trace_dir`
 /// holds no readable 1-thread trace.
 Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
                                const std::filesystem::path& trace_dir,
                                const std::optional<std::filesystem::path>& from,
-                               const std::optional<OverheadModel>& overheads);
+                               const std::optional<OverheadModel>& overheads,
+                               const std::optional<BandwidthModel>& bandwidth = std::nullopt);
 
 /// Markdown table of the validation, with the mean and largest |error|.
 std::string format_validation_markdown(const Validation& validation);

@@ -18,7 +18,7 @@ OmpRuntimeModel runtime_model(const std::string& runtime_name) {
 }
 
 PredictedRow predict_row(const TraceWorkload& workload, const ScheduleModel& model, int threads,
-                         const OverheadModel& overheads) {
+                         const OverheadModel& overheads, const BandwidthModel& bandwidth) {
   const bool active = model.spec.space == schedulers::IterationSpace::active;
   if (!active && workload.space == schedulers::IterationSpace::active) {
     throw std::invalid_argument(fmt::format(
@@ -35,15 +35,33 @@ PredictedRow predict_row(const TraceWorkload& workload, const ScheduleModel& mod
   const bool beyond_one = threads > 1;
   row.dispatch_seconds = beyond_one ? overheads.dispatch(row.scheduler) : 0.0;
   const double per_loop = beyond_one ? overheads.loop_seconds : 0.0;
+  row.bandwidth = bandwidth.at(threads);
   double loop_wall = 0.0, busiest_sum = 0.0, mean_sum = 0.0;
   for (const TracedLoop& loop : workload.loops) {
     const LoopSimulation s =
         simulate_loop(model, active ? loop.active : loop.costs, threads, row.dispatch_seconds);
     double sum = 0.0;
     for (double w : s.thread_work) sum += w;
-    busiest_sum += *std::max_element(s.thread_work.begin(), s.thread_work.end());
-    mean_sum += sum / threads;
-    loop_wall += per_loop + s.makespan;
+    // The ceiling: no faster than its bytes at B(P); a bound loop is stretched as a whole. A
+    // loop that moved its bytes faster than the triad in the trace itself (its data stayed in
+    // cache) is held to its own 1-thread rate scaled as the triad scales, W B(1) / B(P) with W
+    // its work: so the ceiling never lengthens a 1-thread row beyond the trace.
+    double least = 0.0;
+    if (loop.bytes > 0.0 && row.bandwidth > 0.0) {
+      least = loop.bytes / row.bandwidth;
+      const double one = bandwidth.at(1);
+      if (one > 0.0) least = std::min(least, sum * (one / row.bandwidth));
+    }
+    double makespan = s.makespan, stretch = 1.0;
+    if (least > makespan) {
+      ++row.bandwidth_bound_loops;
+      row.bandwidth_added_seconds += least - makespan;
+      if (makespan > 0.0) stretch = least / makespan;
+      makespan = least;
+    }
+    busiest_sum += stretch * *std::max_element(s.thread_work.begin(), s.thread_work.end());
+    mean_sum += stretch * sum / threads;
+    loop_wall += per_loop + makespan;
     row.chunks += s.chunks;
   }
   row.sequential_overhead = workload.sequential_seconds;
@@ -55,13 +73,49 @@ PredictedRow predict_row(const TraceWorkload& workload, const ScheduleModel& mod
   return row;
 }
 
+namespace {
+
+/// What the ceiling rests on and where it does not apply, as notes of `p`.
+void add_bandwidth_notes(Prediction& p, const std::vector<int>& threads) {
+  const BandwidthModel& b = p.bandwidth;
+  if (!b.measured()) return;
+  const TraceWorkload& w = *p.workload;
+  if (w.loops_without_bytes > 0) {
+    p.notes.push_back(fmt::format(
+        "{} of {} loop instances carry no bytes per element (a trace of format 1, written "
+        "before loops declared them): no bandwidth ceiling for them",
+        w.loops_without_bytes, w.loops.size()));
+  }
+  std::int64_t cached = 0;
+  for (const TracedLoop& loop : w.loops) {
+    const double work = loop.costs.range(0, loop.costs.size());
+    if (loop.bytes > 0.0 && work * b.at(1) < loop.bytes) ++cached;
+  }
+  if (cached > 0) {
+    p.notes.push_back(fmt::format(
+        "{} of {} loop instances moved their bytes faster than the 1-thread triad in the trace "
+        "itself (their data stayed in cache between loops, the triad's arrays do not): their "
+        "ceiling is their own 1-thread rate, scaled with P as the triad scales",
+        cached, w.loops.size()));
+  }
+  const int largest = b.largest_threads();
+  if (std::any_of(threads.begin(), threads.end(), [&](int t) { return t > largest; })) {
+    p.notes.push_back(fmt::format(
+        "bandwidth beyond {0} core{1} assumed flat at the {0}-core triad ({2:.2f} GB/s)", largest,
+        largest == 1 ? "" : "s", 1e-9 * b.at(largest)));
+  }
+}
+
+}  // namespace
+
 Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
                    const std::vector<std::string>& schedulers, const std::vector<int>& threads,
-                   const OverheadModel& overheads) {
+                   const OverheadModel& overheads, const BandwidthModel& bandwidth) {
   Prediction p;
   p.trace_file = trace_file;
   p.workload = &workload;
   p.overheads = overheads;
+  p.bandwidth = bandwidth;
   const double whole = workload.sequential_seconds + workload.busy_seconds;
   p.sequential_share = whole > 0.0 ? workload.sequential_seconds / whole : 0.0;
   if (p.sequential_share > 0.0) p.amdahl_limit = 1.0 / p.sequential_share;
@@ -74,6 +128,7 @@ Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
   if (workload.run_seconds <= 0.0) {
     p.notes.push_back("the trace records no run time: sequential time taken as 0");
   }
+  add_bandwidth_notes(p, threads);
   for (const std::string& text : schedulers) {
     const ScheduleModel model = ScheduleModel::parse(text, runtime);
     if (model.spec.space == schedulers::IterationSpace::active &&
@@ -84,9 +139,9 @@ Prediction predict(const TraceWorkload& workload, const std::string& trace_file,
           "left out over the Active-Lists, which never visit them",
           model.name(), workload.dropped_for_active_seconds));
     }
-    const PredictedRow one = predict_row(workload, model, 1, overheads);
+    const PredictedRow one = predict_row(workload, model, 1, overheads, bandwidth);
     for (int t : threads) {
-      PredictedRow row = t == 1 ? one : predict_row(workload, model, t, overheads);
+      PredictedRow row = t == 1 ? one : predict_row(workload, model, t, overheads, bandwidth);
       row.speedup = row.time > 0.0 ? one.time / row.time : 0.0;
       row.efficiency = row.speedup / t;
       p.rows.push_back(row);
@@ -115,6 +170,11 @@ std::string format_prediction_markdown(const Prediction& p) {
       w.machine_cores > 0 ? std::to_string(w.machine_cores) : "?", w.busy_seconds,
       w.sequential_seconds, w.run_seconds);
   out << fmt::format("Overheads: {}.\n", p.overheads.source);
+  out << fmt::format("Bandwidth ceiling: {}.\n", p.bandwidth.source);
+  if (p.bandwidth.measured()) {
+    out << "A loop instance takes at least its bytes (its loop's bytes per element x its "
+           "elements, kernels/loop_bytes.hpp) / B(P), B(P) the triad at P threads.\n";
+  }
   if (p.amdahl_limit) {
     out << fmt::format(
         "Amdahl limit: sequential share s = {:.3g} (time outside loops / (that + busy time)), "
@@ -131,20 +191,25 @@ std::string format_prediction_markdown(const Prediction& p) {
       out << fmt::format("\n## {} (dispatch per chunk above 1 thread {:.1f} ns, {})\n\n", current,
                          1e9 * p.overheads.dispatch(current), p.overheads.dispatch_source(current));
       out << "| Threads | Basis | Seq. overhead [s] | Para. overhead [s] | Imbalance [s] | "
-             "Imbalance [%] | Time [s] | Speed-up | Efficiency | Chunks |\n";
-      out << "|--:|:--|--:|--:|--:|--:|--:|--:|--:|--:|\n";
+             "Imbalance [%] | Time [s] | Speed-up | Efficiency | Chunks | B(P) [GB/s] | "
+             "Bandwidth-bound loops | Bandwidth added [s] |\n";
+      out << "|--:|:--|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
     }
     out << fmt::format(
         "| {} | {} | {:.4f} | {:.4f} | {:.4f} | {:.1f} | {:.4f} | {:.2f} | {:.2f} "
-        "| {} |\n",
+        "| {} | {} | {} | {:.4f} |\n",
         row.threads, basis(row), row.sequential_overhead, row.parallel_overhead, row.load_imbalance,
-        row.imbalance_percent, row.time, row.speedup, row.efficiency, row.chunks);
+        row.imbalance_percent, row.time, row.speedup, row.efficiency, row.chunks,
+        row.bandwidth > 0.0 ? fmt::format("{:.2f}", 1e-9 * row.bandwidth) : std::string("-"),
+        row.bandwidth_bound_loops, row.bandwidth_added_seconds);
   }
   out << "\nEvery row is a prediction (a replay of the trace's per-iteration work through the "
          "scheduler's assignment on a virtual clock), never a measurement. Columns as in the "
          "sweep's Table 2: Seq. overhead = time outside loops; Para. overhead = loop wall - "
          "busiest thread's work; Imbalance = busiest - mean thread work, [%] = busiest/mean - 1; "
-         "Speed-up against the same scheduler's predicted 1-thread time.\n";
+         "Speed-up against the same scheduler's predicted 1-thread time. B(P): the triad's "
+         "bandwidth the ceiling used; Bandwidth-bound loops: instances it lengthened (each "
+         "stretched as a whole), by Bandwidth added in all.\n";
   return out.str();
 }
 
@@ -165,10 +230,14 @@ nlohmann::json prediction_json(const Prediction& p) {
                     {"speedup", r.speedup},
                     {"efficiency", r.efficiency},
                     {"chunks", r.chunks},
-                    {"dispatch_seconds_per_chunk", r.dispatch_seconds}});
+                    {"dispatch_seconds_per_chunk", r.dispatch_seconds},
+                    {"bandwidth_bytes_per_second", r.bandwidth},
+                    {"bandwidth_basis", p.bandwidth.basis(r.threads)},
+                    {"bandwidth_bound_loops", r.bandwidth_bound_loops},
+                    {"bandwidth_added_seconds", r.bandwidth_added_seconds}});
   }
   return {{"schema", "clothbench-prediction"},
-          {"schema_version", 1},
+          {"schema_version", 2},
           {"trace",
            {{"file", p.trace_file},
             {"scene", w.scene},
@@ -177,6 +246,7 @@ nlohmann::json prediction_json(const Prediction& p) {
             {"openmp_runtime", w.openmp_runtime},
             {"machine_cores", w.machine_cores},
             {"loop_instances", w.loops.size()},
+            {"loop_instances_without_bytes", w.loops_without_bytes},
             {"busy_seconds", w.busy_seconds},
             {"sequential_seconds", w.sequential_seconds},
             {"run_seconds", w.run_seconds}}},
@@ -186,6 +256,12 @@ nlohmann::json prediction_json(const Prediction& p) {
             {"measured_threads", p.overheads.measured_threads},
             {"loop_seconds", p.overheads.loop_seconds},
             {"rule", "added above 1 thread only: overhead at the measured threads - at 1 thread"}}},
+          {"bandwidth",
+           {{"source", p.bandwidth.source},
+            {"triad", bandwidth_model_json(p.bandwidth)["triad"]},
+            {"rule",
+             "a loop instance takes at least bytes / B(P); B(P) measured, else linear between "
+             "measured thread counts, else flat beyond the largest"}}},
           {"sequential_share", p.sequential_share},
           {"amdahl_limit", p.amdahl_limit ? nlohmann::json(*p.amdahl_limit) : nlohmann::json()},
           {"notes", p.notes},

@@ -53,6 +53,9 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
   if (h.contains("overheads") && h["overheads"].is_object()) {
     w.stored_overheads = overhead_model_from_json(h["overheads"], name + "'s header");
   }
+  if (h.contains("bandwidth") && !h["bandwidth"].is_null()) {
+    w.stored_bandwidth = bandwidth_model_from_json(h["bandwidth"], name + "'s header");
+  }
   if (h.contains("cost") && h["cost"].is_object()) {
     w.run_seconds = h["cost"].value("run_seconds", 0.0);
   }
@@ -86,7 +89,7 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
     out.step = loop.step;
     out.span_seconds = 1e-9 * static_cast<double>(loop.exit_ns - loop.entry_ns);
     w.loop_span_seconds += out.span_seconds;
-    std::int64_t covered = 0;
+    std::int64_t covered = 0, elements = 0;
     for (; c < trace.chunks.size() && trace.chunks[c].instance == i; ++c) {
       const kernels::ChunkRecord& chunk = trace.chunks[c];
       if (chunk.begin != covered || chunk.end < chunk.begin || chunk.end > loop.n) {
@@ -103,6 +106,12 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
         if (chunk.elements == 0) w.dropped_for_active_seconds += seconds;
       }
       covered = chunk.end;
+      elements += chunk.elements;
+    }
+    if (loop.bytes_per_element >= 0.0) {
+      out.bytes = loop.bytes_per_element * static_cast<double>(elements);
+    } else {
+      ++w.loops_without_bytes;
     }
     if (covered != loop.n) {
       throw std::invalid_argument(fmt::format(
@@ -122,9 +131,12 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
 
 OverheadModel choose_overheads(const std::optional<OverheadModel>& given,
                                const TraceWorkload& workload) {
-  if (given) return *given;
-  if (workload.stored_overheads) return *workload.stored_overheads;
-  return OverheadModel{};
+  return given.value_or(workload.stored_overheads.value_or(OverheadModel{}));
+}
+
+BandwidthModel choose_bandwidth(const std::optional<BandwidthModel>& given,
+                                const TraceWorkload& workload) {
+  return given.value_or(workload.stored_bandwidth.value_or(BandwidthModel{}));
 }
 
 }  // namespace clothbench::harness

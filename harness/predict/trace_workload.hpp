@@ -8,6 +8,8 @@
 // the same. The element counts carry a trace over blocks to the Active-Lists' space: the
 // entries of a block's live elements follow each other in list order (kernels/loop_runner.hpp),
 // so a chunk of E live elements and duration D becomes E entries of D / E each.
+// A loop instance's bytes are its recorded bytes per element (kernels/loop_bytes.hpp) times the
+// elements its chunks visited: the same in either space.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/predict/bandwidth_model.hpp"
 #include "harness/predict/overhead_model.hpp"
 #include "harness/trace/trace_file.hpp"
 #include "schedulers/loop_driver.hpp"
@@ -49,6 +52,9 @@ struct TracedLoop {
   IterationCosts costs;       ///< over the trace's own iteration space
   IterationCosts active;      ///< over the Active-Lists' space (from a trace over blocks)
   double span_seconds = 0.0;  ///< the traced run's loop span (entry to exit over all threads)
+  /// Unavoidable bytes the instance moves (bytes per element x elements); negative when the
+  /// trace does not record them (format 1).
+  double bytes = -1.0;
 };
 
 /// A trace prepared for replay.
@@ -69,12 +75,18 @@ struct TraceWorkload {
   double dropped_for_active_seconds = 0.0;
   /// The scheduling costs the trace's header stores (`run|sweep --trace-overheads`), if any.
   std::optional<OverheadModel> stored_overheads;
+  /// The triad the trace's header stores (`run|sweep --trace-bandwidth`), if any.
+  std::optional<BandwidthModel> stored_bandwidth;
+  std::int64_t loops_without_bytes = 0;  ///< loop instances whose bytes are not recorded
 };
 
 /// The costs a prediction from `workload` uses: `given` (--overheads) when set, else the
 /// trace's stored ones, else zero (each model's source text says which).
 OverheadModel choose_overheads(const std::optional<OverheadModel>& given,
                                const TraceWorkload& workload);
+/// Likewise the bandwidth: `given` (--bandwidth), else the trace's stored triad, else none.
+BandwidthModel choose_bandwidth(const std::optional<BandwidthModel>& given,
+                                const TraceWorkload& workload);
 
 /// Builds the workload of `trace`; throws std::invalid_argument naming `name` (the file) when
 /// the trace is inconsistent (a chunk outside its loop, ranges that do not tile a loop).

@@ -13,7 +13,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
 #include "harness/output/vtk_writer.hpp"
-#include "harness/predict/overhead_model.hpp"
+#include "harness/predict/trace_models.hpp"
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/run/run_summary.hpp"
@@ -51,16 +51,14 @@ void apply_overrides(const RunOptions& options, Scene& scene) {
   }
 }
 
-/// --trace-step and --trace-overheads need --trace, --trace-step a step of the run; returns
-/// the header's "overheads" (null without --trace-overheads). Throws std::invalid_argument
-/// naming the flag.
+/// --trace-step, --trace-overheads and --trace-bandwidth need --trace, --trace-step a step of
+/// the run; returns the header entries the last two copy in (trace_model_headers). Throws
+/// std::invalid_argument naming the flag.
 nlohmann::json check_trace_options(const RunOptions& options, int steps) {
-  nlohmann::json overheads;
-  if (options.trace_overheads) {
-    if (!options.trace_file) throw std::invalid_argument("--trace-overheads: needs --trace FILE");
-    overheads = trace_overheads_header(*options.trace_overheads);
-  }
-  if (!options.trace_step) return overheads;
+  const nlohmann::json models =
+      trace_model_headers(options.trace_overheads, options.trace_bandwidth,
+                          options.trace_file.has_value(), "--trace FILE");
+  if (!options.trace_step) return models;
   if (!options.trace_file) {
     throw std::invalid_argument("--trace-step: needs --trace FILE");
   }
@@ -68,7 +66,7 @@ nlohmann::json check_trace_options(const RunOptions& options, int steps) {
     throw std::invalid_argument(fmt::format("--trace-step: {} is not a step of this run (1..{})",
                                             *options.trace_step, steps));
   }
-  return overheads;
+  return models;
 }
 
 }  // namespace
@@ -110,14 +108,14 @@ int run_scene(const RunOptions& options) {
   Scene scene;
   std::unique_ptr<schedulers::LoopDriver> driver;
   int threads = 0;
-  nlohmann::json trace_overheads;
+  nlohmann::json trace_models;
   try {
     scene = load_scene(options.scene_file, default_presets_file());
     apply_overrides(options, scene);
     check_memory(scene);
     threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
     driver = schedulers::make_driver(options.scheduler);
-    trace_overheads = check_trace_options(options, scene.steps);
+    trace_models = check_trace_options(options, scene.steps);
   } catch (const SceneError& error) {
     fmt::print(stderr, "clothbench: {}\n", error.what());
     return kExitBadInput;
@@ -184,7 +182,7 @@ int run_scene(const RunOptions& options) {
                                 {"threads", threads},
                                 {"steps", summary.steps.size()},
                                 {"state_digest", fnv1a64_hex(state_bytes(simulation))}};
-      if (!trace_overheads.is_null()) context["overheads"] = trace_overheads;
+      context.update(trace_models);
       write_trace_outputs(*trace, *options.trace_file, context, summary.wall_seconds,
                           options.trace_step);
     }

@@ -29,6 +29,9 @@ struct RunOptions {
   /// --trace-overheads FILE: the scheduling_overhead micro-benchmark's JSON, whose per-loop
   /// and per-chunk costs go into the trace header for `clothbench predict`.
   std::optional<std::filesystem::path> trace_overheads;
+  /// --trace-bandwidth FILE: clothbench-micro's triad JSON, whose bandwidth by thread count
+  /// goes into the trace header for the predictor's ceiling (bandwidth_model.hpp).
+  std::optional<std::filesystem::path> trace_bandwidth;
 };
 
 /// Runs the scene and prints per-step cost, final summary and `Verification: PASSED/FAILED`.

@@ -12,7 +12,7 @@
 
 #include "harness/machine/machine_context.hpp"
 #include "harness/output/atomic_file.hpp"
-#include "harness/predict/overhead_model.hpp"
+#include "harness/predict/trace_models.hpp"
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/report/sweep_table.hpp"
@@ -54,10 +54,11 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
 /// sweep --trace: one more run of the row with the per-chunk trace, after its measured runs
 /// and not counted (tracing adds two clock reads per chunk: the measured runs stay untraced).
 /// Writes DIR/<scheduler>-<threads>t.cbtrace and its timeline; the header says whether the
-/// final state equals the sweep's reference bit for bit.
+/// final state equals the sweep's reference bit for bit, and holds `models` (the predictor's
+/// costs and bandwidth, trace_model_headers).
 void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads,
                     const std::string& reference_bytes, const std::filesystem::path& dir,
-                    const json& overheads, bool quiet) {
+                    const json& models, bool quiet) {
   omp_set_num_threads(threads);
   kernels::Simulation simulation(scene.simulation);
   kernels::ChunkTrace trace;
@@ -80,7 +81,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
                             {"steps", scene.steps},
                             {"state_digest", fnv1a64_hex(bytes)},
                             {"bit_identical_to_reference", bytes == reference_bytes}};
-  if (!overheads.is_null()) context["overheads"] = overheads;
+  context.update(models);
   write_trace_outputs(trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context, seconds,
                       std::nullopt, quiet);
 }
@@ -165,11 +166,9 @@ int run_sweep(const SweepOptions& options) {
   const std::vector<int> threads =
       options.threads.empty() ? default_thread_counts(binder.cores()) : options.threads;
   for (int n : threads) resolve_threads(n, options.allow_oversubscribe, "--threads");
-  json trace_overheads;  // the traces' header "overheads" (null: none given)
-  if (options.trace_overheads) {
-    if (!options.trace_dir) throw std::invalid_argument("--trace-overheads: needs --trace DIR");
-    trace_overheads = trace_overheads_header(*options.trace_overheads);
-  }
+  // The traces' header "overheads" and "bandwidth" (each absent when not given).
+  const json trace_models = trace_model_headers(options.trace_overheads, options.trace_bandwidth,
+                                                options.trace_dir.has_value(), "--trace DIR");
   const int hardware = hardware_threads();
   const std::filesystem::path json_file = options.output_dir / "sweep.json";
 
@@ -284,7 +283,7 @@ int run_sweep(const SweepOptions& options) {
       }
     }
     if (options.trace_dir) {
-      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, trace_overheads,
+      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, trace_models,
                      options.quiet);
       if (stop.signal() != 0) return std::nullopt;
     }

@@ -44,6 +44,9 @@ struct SweepOptions {
   /// --trace-overheads FILE: scheduling costs copied into every trace's header (predict uses
   /// them); see harness/predict/overhead_model.hpp.
   std::optional<std::filesystem::path> trace_overheads;
+  /// --trace-bandwidth FILE: the triad's bandwidth by thread count, copied likewise (the
+  /// predictor's ceiling); see harness/predict/bandwidth_model.hpp.
+  std::optional<std::filesystem::path> trace_bandwidth;
   std::filesystem::path output_dir = "results/latest";
   std::vector<std::string> command_line;  ///< argv, recorded in the result
 };

@@ -15,7 +15,10 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kMagic = "clothbench-trace 1";
+constexpr const char* kMagic = "clothbench-trace 2";
+/// Format 1: the same file with 40-byte loop records (no bytes_per_element).
+constexpr const char* kMagicFormat1 = "clothbench-trace 1";
+constexpr std::size_t kFormat1LoopBytes = 40;
 
 const char* kind_name(int kind) {
   switch (kind) {
@@ -50,7 +53,8 @@ json loop_layout() {
                       {"site", "<i4"},
                       {"n", "<i8"},
                       {"entry_ns", "<i8"},
-                      {"exit_ns", "<i8"}});
+                      {"exit_ns", "<i8"},
+                      {"bytes_per_element", "<f8"}});
 }
 
 }  // namespace
@@ -93,6 +97,10 @@ TraceDocument collect_trace(const kernels::ChunkTrace& trace, const json& contex
   header["loop_record"] = loop_layout();
   header["chunk_record"] = chunk_layout();
   header["record_bytes"] = sizeof(kernels::ChunkRecord);
+  header["loop_record_bytes"] = sizeof(kernels::LoopRecord);
+  header["bytes_per_element"] =
+      "per loop instance, the unavoidable bytes per element its LoopRunner call declares "
+      "(reads + writes, kernels/loop_bytes.hpp)";
   // Tracing adds two clock reads and one record per chunk (and one span per loop and thread,
   // not counted): chunks x the measured cost of one record.
   header["cost"] = {{"record_seconds", record_seconds},
@@ -133,7 +141,8 @@ TraceDocument read_trace(const std::filesystem::path& file) {
   if (!in) throw std::runtime_error(file.string() + ": cannot open the trace");
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::size_t first = bytes.find('\n');
-  if (first == std::string::npos || bytes.compare(0, first, kMagic) != 0) {
+  const bool format1 = first != std::string::npos && bytes.compare(0, first, kMagicFormat1) == 0;
+  if (first == std::string::npos || (!format1 && bytes.compare(0, first, kMagic) != 0)) {
     throw std::runtime_error(file.string() + ": not a clothbench trace (first line)");
   }
   const std::size_t second = bytes.find('\n', first + 1);
@@ -147,7 +156,8 @@ TraceDocument read_trace(const std::filesystem::path& file) {
   const auto loops = document.header.at("loop_count").get<std::size_t>();
   const auto chunks = document.header.at("chunk_count").get<std::size_t>();
   const std::size_t head = second + 1;
-  const std::size_t loop_bytes = loops * sizeof(kernels::LoopRecord);
+  const std::size_t record = format1 ? kFormat1LoopBytes : sizeof(kernels::LoopRecord);
+  const std::size_t loop_bytes = loops * record;
   const std::size_t chunk_bytes = chunks * sizeof(kernels::ChunkRecord);
   if (bytes.size() != head + loop_bytes + chunk_bytes) {
     throw std::runtime_error(fmt::format("{}: {} bytes, but the header announces {}", file.string(),
@@ -155,7 +165,11 @@ TraceDocument read_trace(const std::filesystem::path& file) {
   }
   document.loops.resize(loops);
   document.chunks.resize(chunks);
-  if (loop_bytes > 0) std::memcpy(document.loops.data(), bytes.data() + head, loop_bytes);
+  for (std::size_t i = 0; i < loops; ++i) {  // format 1's records are this one's first 40 bytes
+    kernels::LoopRecord& loop = document.loops[i];
+    loop.bytes_per_element = kernels::kBytesNotRecorded;
+    std::memcpy(&loop, bytes.data() + head + i * record, record);
+  }
   if (chunk_bytes > 0) {
     std::memcpy(document.chunks.data(), bytes.data() + head + loop_bytes, chunk_bytes);
   }

@@ -1,12 +1,15 @@
 // The per-chunk trace file of `clothbench run --trace FILE` (issue 17): write and read.
 //
 // Layout (little-endian, as the x86-64 and AArch64 machines it runs on):
-//   line 1  "clothbench-trace 1"
+//   line 1  "clothbench-trace 2"
 //   line 2  the JSON header, one line: format, machine context, scene, scheduler, threads,
-//           the loop sites (id -> name), record counts and layouts, the cost of tracing
-//   then    header.loop_count   LoopRecord  (40 bytes each, kernels/chunk_trace.hpp)
+//           the loop sites (id -> name), record counts and layouts, the cost of tracing, and
+//           what `--trace-overheads` / `--trace-bandwidth` copied in (overheads, bandwidth)
+//   then    header.loop_count   LoopRecord  (48 bytes each, kernels/chunk_trace.hpp)
 //   then    header.chunk_count  ChunkRecord (40 bytes each), sorted by loop instance, begin
 // numpy: np.fromfile(f, dtype, count, offset) with the dtypes the header's layouts give.
+// Format 1 (before loops recorded their bytes per element) had 40-byte loop records without
+// the last field; read_trace still reads it, with kBytesNotRecorded for every loop.
 #pragma once
 
 #include <cstdint>
@@ -42,7 +45,8 @@ TraceDocument collect_trace(const kernels::ChunkTrace& trace, const nlohmann::js
 /// written. Throws std::runtime_error or std::filesystem::filesystem_error naming the file.
 std::uintmax_t write_trace(const std::filesystem::path& file, const TraceDocument& document);
 
-/// Reads a trace file; throws std::runtime_error naming the file on a bad or short file.
+/// Reads a trace file of format 2 or 1; throws std::runtime_error naming the file on a bad or
+/// short file.
 TraceDocument read_trace(const std::filesystem::path& file);
 
 }  // namespace clothbench::harness

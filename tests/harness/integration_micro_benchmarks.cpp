@@ -1,7 +1,7 @@
 // clothbench-micro (harness/micro, Google Benchmark) smoke test: every benchmark family is
-// registered at its measuring sizes, and with CLOTHBENCH_MICRO_SMOKE=1 every benchmark runs once
-// at a tiny size (about 20 s in all), exits 0 and writes JSON whose results and counters are
-// finite.
+// registered at its measuring sizes (the triad at every thread count up to the cores), and with
+// CLOTHBENCH_MICRO_SMOKE=1 every benchmark runs once at a tiny size (about 20 s in all), exits 0
+// and writes JSON whose results and counters are finite.
 // Needs a build with CLOTHBENCH_BUILD_BENCHMARKS=ON (tests/CMakeLists.txt passes the binary's
 // path); skipped otherwise (the ASan build of scripts/test --sanitize turns benchmarks off).
 // No timing is asserted.
@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "harness/machine/machine_context.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
 namespace {
@@ -76,6 +77,20 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
     line_start += family;
     EXPECT_THAT(o.output, HasSubstr(line_start)) << family;
   }
+}
+
+TEST_F(MicroBenchmarks, TheTriadRunsAtEveryThreadCountUpToThePhysicalCores) {
+  // The predictor's bandwidth ceiling reads B(P) at every P from 1 to the cores.
+  const clothbench_test::Outcome o = run_micro("--benchmark_list_tests --benchmark_filter=^triad");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const int cores = clothbench::harness::physical_cores();
+  for (int threads = 1; threads <= cores; ++threads) {
+    EXPECT_THAT(o.output,
+                testing::ContainsRegex("triad/[0-9]+/" + std::to_string(threads) + "/real_time"))
+        << threads << " threads";
+  }
+  EXPECT_THAT(o.output, testing::Not(testing::ContainsRegex(
+                            "triad/[0-9]+/" + std::to_string(cores + 1) + "/real_time")));
 }
 
 /// Every number in a benchmark's JSON entry (its counters included) is finite. Google

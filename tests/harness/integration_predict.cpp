@@ -9,9 +9,14 @@
 //    gss, dynamic:2);
 //  - `clothbench predict` prints a labelled Table 2 and refuses bad input naming the flag or
 //    file with exit code 2; `--validate` predicts the rows of a sweep from its traces;
-//  - `sweep --trace DIR --trace-overheads FILE` stores the scheduling costs in each trace's
-//    header, which reads back to the same model, and `predict` uses them (and says so) when no
-//    --overheads is given; bad --trace-overheads input is refused naming the flag, exit 2.
+//  - `sweep --trace DIR --trace-overheads FILE --trace-bandwidth FILE` stores the scheduling
+//    costs and the triad in each trace's header, which read back to the same models, and
+//    `predict` uses them (and says so) when no --overheads / --bandwidth is given; bad
+//    --trace-overheads / --trace-bandwidth input is refused naming the flag, exit 2;
+//  - `predict --bandwidth FILE`: the ceiling lengthens every loop of a real trace under a
+//    tiny bandwidth and none under a huge one; a trace of format 1 (no bytes per loop) still
+//    loads and gets no ceiling, saying so; a bad triad file is refused naming the flag and
+//    the file, exit 2.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -21,6 +26,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -214,6 +221,19 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
   EXPECT_THAT(out.output, HasSubstr("6 rows: mean |error|"));
 }
 
+/// A triad JSON as clothbench-micro writes it, at 1 and 2 threads, with `rate` bytes per second
+/// at both.
+fs::path synthetic_triad(const fs::path& dir, const std::string& name, const std::string& rate) {
+  fs::create_directories(dir);
+  const fs::path file = dir / name;
+  std::ofstream(file) << R"({"benchmarks": [
+    {"name": "triad/16777216/1/real_time", "threads": 1, "bytes_per_second": )"
+                      << rate << R"(},
+    {"name": "triad/16777216/2/real_time", "threads": 2, "bytes_per_second": )"
+                      << rate << "}]}";
+  return file;
+}
+
 /// A scheduling_overhead JSON as clothbench-micro writes it, with figures chosen here:
 /// static@blocks 1 us per loop at 1 thread and 5 us at 2 (4 us beyond 1 thread).
 fs::path synthetic_overheads(const fs::path& dir) {
@@ -227,9 +247,10 @@ fs::path synthetic_overheads(const fs::path& dir) {
   return file;
 }
 
-TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
+TEST(PredictCommand, UsesTheOverheadsAndTriadStoredInTheTraceHeader) {
   const fs::path dir = clothbench_test::fresh_dir("predict_stored_overheads");
   const fs::path overheads = synthetic_overheads(dir);
+  const fs::path triad = synthetic_triad(dir, "triad.json", "5e9");
   const auto sweep = clothbench_test::run(
       "sweep " +
       clothbench_test::quote(std::string(CLOTHBENCH_SOURCE_DIR) +
@@ -238,7 +259,8 @@ TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
       "--out " +
       clothbench_test::quote((dir / "out").string()) + " --trace " +
       clothbench_test::quote((dir / "traces").string()) + " --trace-overheads " +
-      clothbench_test::quote(overheads.string()));
+      clothbench_test::quote(overheads.string()) + " --trace-bandwidth " +
+      clothbench_test::quote(triad.string()));
   ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
   const fs::path trace = dir / "traces" / "static_blocks-1t.cbtrace";
   // The header holds the model as read from the file, and reads back to the same figures.
@@ -249,6 +271,9 @@ TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
   const harness::TraceWorkload w = harness::build_workload(document, trace.string());
   ASSERT_TRUE(w.stored_overheads.has_value());
   EXPECT_NEAR(w.stored_overheads->loop_seconds, 4e-6, 1e-15);
+  ASSERT_TRUE(w.stored_bandwidth.has_value()) << document.header.dump();
+  EXPECT_EQ(w.stored_bandwidth->triad, (std::map<int, double>{{1, 5e9}, {2, 5e9}}));
+  EXPECT_EQ(w.loops_without_bytes, 0);
 
   // predict without --overheads takes them from the header and says so; the 2-thread time
   // holds 4 us per loop instance more than the zero-overhead prediction's.
@@ -259,8 +284,11 @@ TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
   ASSERT_EQ(out.exit_code, 0) << out.output;
   EXPECT_THAT(out.output,
               HasSubstr("static_blocks-1t.cbtrace's header, copied from " + overheads.string()));
+  EXPECT_THAT(out.output, HasSubstr("Bandwidth ceiling: " + trace.string() +
+                                    "'s header, copied from " + triad.string()));
   const harness::OverheadModel zero;
-  const harness::Prediction p = harness::predict(w, trace.string(), {"static"}, {2}, zero);
+  const harness::Prediction p =
+      harness::predict(w, trace.string(), {"static"}, {2}, zero, *w.stored_bandwidth);
   const auto stored = clothbench_test::read_json(with);
   EXPECT_NEAR(stored["rows"][0]["time_seconds"].get<double>(),
               p.rows[0].time + 4e-6 * static_cast<double>(w.loops.size()), 1e-9);
@@ -271,39 +299,134 @@ TEST(PredictCommand, UsesTheOverheadsStoredInTheTraceHeader) {
   ASSERT_EQ(given.exit_code, 0) << given.output;
   EXPECT_THAT(given.output, HasSubstr("Overheads: " + overheads.string() + ": "));
 
-  // Bad input: a missing file or one without the 1-thread figures, and the flag without
-  // --trace, name the flag; exit 2.
+  // Bad input: a missing file, one without the 1-thread figures or with a negative triad, and
+  // either flag without --trace, name the flag (and the file); exit 2.
   std::ofstream(dir / "two_only.json") << R"({"benchmarks": [
     {"name": "scheduling_overhead/static@blocks/iterations:30/real_time", "threads": 2,
      "overhead_loop_us_median": 5.0, "chunks_per_loop": 2}]})";
+  const fs::path negative = synthetic_triad(dir, "negative.json", "-5");
   const std::string scene = clothbench_test::quote(std::string(CLOTHBENCH_SOURCE_DIR) +
                                                    "/tests/data/scenes/sweep-tiny.toml");
-  const std::string run_out =
-      " --no-vtk --quiet --steps 1 --out " + clothbench_test::quote((dir / "runs").string());
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"run " + scene + run_out + " --trace " +
-           clothbench_test::quote((dir / "r.cbtrace").string()) + " --trace-overheads " +
-           clothbench_test::quote((dir / "none.json").string()),
-       "none.json"},
-      {"run " + scene + run_out + " --trace " +
-           clothbench_test::quote((dir / "r.cbtrace").string()) + " --trace-overheads " +
-           clothbench_test::quote((dir / "two_only.json").string()),
-       "at 2 threads only"},
-      {"run " + scene + run_out + " --trace-overheads " +
-           clothbench_test::quote(overheads.string()),
-       "needs --trace"},
-      {"sweep " + scene + " --threads 1 --schedulers static --quiet --no-plots --out " +
-           clothbench_test::quote((dir / "s").string()) + " --trace-overheads " +
-           clothbench_test::quote(overheads.string()),
-       "needs --trace"},
+  const std::string run = "run " + scene + " --no-vtk --quiet --steps 1 --out " +
+                          clothbench_test::quote((dir / "runs").string());
+  const std::string traced =
+      run + " --trace " + clothbench_test::quote((dir / "r.cbtrace").string());
+  const std::string sweep_untraced = "sweep " + scene +
+                                     " --threads 1 --schedulers static --quiet --no-plots --out " +
+                                     clothbench_test::quote((dir / "s").string());
+  auto flag_file = [](const std::string& command, const std::string& flag, const fs::path& file) {
+    return command + " " + flag + " " + clothbench_test::quote(file.string());
   };
-  for (const auto& [arguments, expected] : cases) {
-    const auto bad = clothbench_test::run(arguments);
-    EXPECT_EQ(bad.exit_code, 2) << arguments << "\n" << bad.output;
-    EXPECT_THAT(bad.output, HasSubstr("--trace-overheads")) << arguments;
-    EXPECT_THAT(bad.output, HasSubstr(expected)) << arguments;
+  struct BadCase {
+    std::string arguments, flag, expected;
+  };
+  const std::vector<BadCase> cases = {
+      {flag_file(traced, "--trace-overheads", dir / "none.json"), "--trace-overheads", "none.json"},
+      {flag_file(traced, "--trace-overheads", dir / "two_only.json"), "--trace-overheads",
+       "at 2 threads only"},
+      {flag_file(run, "--trace-overheads", overheads), "--trace-overheads", "needs --trace"},
+      {flag_file(sweep_untraced, "--trace-overheads", overheads), "--trace-overheads",
+       "needs --trace"},
+      {flag_file(traced, "--trace-bandwidth", negative), "--trace-bandwidth",
+       "negative.json: triad/16777216/1/real_time: bytes_per_second -5"},
+      {flag_file(run, "--trace-bandwidth", triad), "--trace-bandwidth", "needs --trace"},
+      {flag_file(sweep_untraced, "--trace-bandwidth", triad), "--trace-bandwidth", "needs --trace"},
+  };
+  for (const BadCase& c : cases) {
+    const auto bad = clothbench_test::run(c.arguments);
+    EXPECT_EQ(bad.exit_code, 2) << c.arguments << "\n" << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr(c.flag)) << c.arguments;
+    EXPECT_THAT(bad.output, HasSubstr(c.expected)) << c.arguments;
   }
   EXPECT_FALSE(fs::exists(dir / "r.cbtrace")) << "no trace is written from bad input";
+}
+
+/// `from` rewritten as a trace of format 1: its first line, and loop records without their
+/// last 8 bytes (bytes_per_element).
+void write_format1(const fs::path& from, const fs::path& to) {
+  std::ifstream in(from, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t first = bytes.find('\n'), second = bytes.find('\n', first + 1);
+  const auto loops = nlohmann::json::parse(bytes.substr(first + 1, second - first - 1))
+                         .at("loop_count")
+                         .get<std::size_t>();
+  std::string out = "clothbench-trace 1" + bytes.substr(first, second + 1 - first);
+  for (std::size_t i = 0; i < loops; ++i) {
+    out += bytes.substr(second + 1 + i * sizeof(kernels::LoopRecord), 40);
+  }
+  out += bytes.substr(second + 1 + loops * sizeof(kernels::LoopRecord));
+  std::ofstream(to, std::ios::binary) << out;
+}
+
+TEST(PredictCommand, BandwidthCeilingFromATriadFile) {
+  const std::string trace = clothbench_test::quote(recorded_trace().string());
+  const fs::path dir = clothbench_test::fresh_dir("predict_bandwidth");
+  const fs::path slow = synthetic_triad(dir, "slow.json", "1e3");
+  const fs::path fast = synthetic_triad(dir, "fast.json", "1e18");
+  auto predict = [&](const std::string& file, const fs::path& triad, const fs::path& json) {
+    return clothbench_test::run("predict " + file + " --threads 1,2,64 --schedulers static " +
+                                "--bandwidth " + clothbench_test::quote(triad.string()) +
+                                " --json " + clothbench_test::quote(json.string()));
+  };
+  // 1 kB/s, flat: every loop instance that moves a byte beat it in the trace, so each is held
+  // to its own 1-thread time at every thread count: nothing is bound at 1 thread, and no row
+  // is faster than the 1-thread row.
+  const auto bound = predict(trace, slow, dir / "slow-out.json");
+  ASSERT_EQ(bound.exit_code, 0) << bound.output;
+  EXPECT_THAT(bound.output, HasSubstr("Bandwidth ceiling: " + slow.string() + ": STREAM triad"));
+  EXPECT_THAT(bound.output, HasSubstr("bandwidth beyond 2 cores assumed flat"));
+  EXPECT_THAT(bound.output, HasSubstr("moved their bytes faster than the 1-thread triad"));
+  const auto slow_rows = clothbench_test::read_json(dir / "slow-out.json")["rows"];
+  const harness::TraceWorkload w =
+      harness::build_workload(harness::read_trace(recorded_trace()), "d1.cbtrace");
+  const std::size_t loops = w.loops.size();
+  const auto moving = std::count_if(w.loops.begin(), w.loops.end(),
+                                    [](const harness::TracedLoop& l) { return l.bytes > 0.0; });
+  EXPECT_GT(moving, 0);
+  EXPECT_EQ(slow_rows[0]["bandwidth_bound_loops"].get<std::int64_t>(), 0);
+  for (std::size_t k = 1; k < slow_rows.size(); ++k) {
+    const auto& r = slow_rows[k];
+    EXPECT_GT(r["bandwidth_bound_loops"].get<std::int64_t>(), 0) << r.dump();
+    EXPECT_LE(r["bandwidth_bound_loops"].get<std::int64_t>(), moving) << r.dump();
+    EXPECT_GT(r["bandwidth_added_seconds"].get<double>(), 0.0) << r.dump();
+    EXPECT_GE(r["time_seconds"].get<double>(),
+              slow_rows[0]["time_seconds"].get<double>() * (1.0 - 1e-12))
+        << r.dump();
+  }
+  EXPECT_EQ(slow_rows[2]["bandwidth_basis"], "flat beyond 2 cores: the 2-core triad");
+  // 1 EB/s: nothing is bound.
+  const auto free = predict(trace, fast, dir / "fast-out.json");
+  ASSERT_EQ(free.exit_code, 0) << free.output;
+  for (const auto& r : clothbench_test::read_json(dir / "fast-out.json")["rows"]) {
+    EXPECT_EQ(r["bandwidth_bound_loops"], 0) << r.dump();
+  }
+
+  // A trace of format 1 loads; its loops carry no bytes, so nothing is bound, and it says so.
+  write_format1(recorded_trace(), dir / "old.cbtrace");
+  const auto old =
+      predict(clothbench_test::quote((dir / "old.cbtrace").string()), slow, dir / "old-out.json");
+  ASSERT_EQ(old.exit_code, 0) << old.output;
+  EXPECT_THAT(old.output, HasSubstr(std::to_string(loops) + " of " + std::to_string(loops) +
+                                    " loop instances carry no bytes per element"));
+  const auto old_json = clothbench_test::read_json(dir / "old-out.json");
+  EXPECT_EQ(old_json["trace"]["loop_instances_without_bytes"], loops);
+  for (const auto& r : old_json["rows"]) EXPECT_EQ(r["bandwidth_bound_loops"], 0) << r.dump();
+
+  // Bad triad files are refused naming the flag and the file; exit 2.
+  std::ofstream(dir / "no-rate.json")
+      << R"({"benchmarks": [{"name": "triad/8/1/real_time", "threads": 1}]})";
+  const std::vector<std::pair<fs::path, std::string>> cases = {
+      {synthetic_triad(dir, "negative.json", "-5"), "bytes_per_second -5"},
+      {dir / "no-rate.json", "no bytes_per_second"},
+      {dir / "none.json", "cannot open the bandwidth file"},
+  };
+  for (const auto& [file, expected] : cases) {
+    const auto bad = clothbench_test::run("predict " + trace + " --bandwidth " +
+                                          clothbench_test::quote(file.string()));
+    EXPECT_EQ(bad.exit_code, 2) << file << "\n" << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr("clothbench predict: --bandwidth: " + file.string()));
+    EXPECT_THAT(bad.output, HasSubstr(expected)) << file;
+  }
 }
 
 }  // namespace

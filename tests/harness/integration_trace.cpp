@@ -6,7 +6,8 @@
 //    exactly one chunk), thread ids are below the team size, chunk times lie within their
 //    loop's span, and the chunks of one thread do not overlap in time;
 //  - every schedule runs the same loop sequence (sites, steps, iterations) and visits the
-//    same elements in each loop instance (over the lists: n itself);
+//    same elements in each loop instance (over the lists: n itself); every non-empty loop
+//    instance records the bytes per element its call declares (> 0), the same in every run;
 //  - tracing changes no result: the final state's digest equals the untraced run's;
 //  - the file round-trips (write_trace, read_trace), the timeline stays under its bar cap;
 //  - `clothbench run --trace` writes the file (header with machine, scheduler, threads, cost)
@@ -150,6 +151,10 @@ TEST_P(TraceTest, ChunksTileEveryLoopAndChangeNoResult) {
     ASSERT_EQ(loops[i].step, first.loops[i].step) << "loop " << i;
     ASSERT_EQ(loops[i].iteration, first.loops[i].iteration) << "loop " << i;
     ASSERT_EQ(sum[i], first_sum[i]) << "loop " << i << " " << site["name"];
+    ASSERT_TRUE(loops[i].bytes_per_element > 0.0 || loops[i].n == 0)
+        << "loop " << i << " " << site["name"] << " declares no bytes per element";
+    ASSERT_EQ(loops[i].bytes_per_element, first.loops[i].bytes_per_element)
+        << "loop " << i << " " << site["name"];
     if (lists && site["kind"] != "index") {
       ASSERT_EQ(sum[i], loops[i].n) << "loop " << i;
     }
@@ -181,6 +186,9 @@ TEST(Trace, FileRoundTripsAndTimelineIsBounded) {
   ASSERT_EQ(back.chunks.size(), trace.chunks.size());
   EXPECT_EQ(std::memcmp(back.chunks.data(), trace.chunks.data(),
                         trace.chunks.size() * sizeof(kernels::ChunkRecord)),
+            0);
+  EXPECT_EQ(std::memcmp(back.loops.data(), trace.loops.data(),
+                        trace.loops.size() * sizeof(kernels::LoopRecord)),
             0);
   // A cut file is refused, naming it.
   fs::resize_file(dir / "t.cbtrace", fs::file_size(dir / "t.cbtrace") - 1);

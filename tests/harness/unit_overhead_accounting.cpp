@@ -37,7 +37,8 @@ double spin(double seconds) {
   return now - start;
 }
 
-/// Any mesh: the loops below run over indices (for_index), not over elements.
+/// Any mesh: the loops below run over indices (for_index), not over elements, and declare no
+/// bytes (LoopBytes {}: nothing here reads the trace).
 const kernels::ClothMesh& some_mesh() {
   static const kernels::Simulation simulation{[] {
     kernels::SimulationConfig c;
@@ -93,9 +94,9 @@ TEST(OverheadKnownAnswer, DynamicKRunsCeilNOverKChunks) {
       for (const std::int64_t n : {1, 10, 17, 100}) {
         const harness::OverheadAccounting a =
             account_loops(*driver, 2, level, [&](kernels::LoopRunner& run) {
-              run.for_index(n, [](std::int64_t) {});
-              run.for_index(n, [](std::int64_t) {});
-              run.for_index(n, [](std::int64_t) {});
+              run.for_index(n, {}, [](std::int64_t) {});
+              run.for_index(n, {}, [](std::int64_t) {});
+              run.for_index(n, {}, [](std::int64_t) {});
             });
         EXPECT_EQ(a.loops, 3);
         EXPECT_EQ(a.chunks, 3 * ((n + k - 1) / k)) << "dynamic:" << k << ", n = " << n;
@@ -104,10 +105,11 @@ TEST(OverheadKnownAnswer, DynamicKRunsCeilNOverKChunks) {
   }
   // static without a chunk: one contiguous share per thread.
   const auto fixed = schedulers::make_driver("static");
-  EXPECT_EQ(account_loops(*fixed, 2, Instrumentation::chunks,
-                          [](kernels::LoopRunner& run) { run.for_index(100, [](std::int64_t) {}); })
-                .chunks,
-            2);
+  EXPECT_EQ(
+      account_loops(*fixed, 2, Instrumentation::chunks,
+                    [](kernels::LoopRunner& run) { run.for_index(100, {}, [](std::int64_t) {}); })
+          .chunks,
+      2);
 }
 
 TEST(OverheadKnownAnswer, TaskloopCountsEachChunkOnTheThreadThatRanIt) {
@@ -127,7 +129,7 @@ TEST(OverheadKnownAnswer, TaskloopCountsEachChunkOnTheThreadThatRanIt) {
     const harness::OverheadAccounting a =
         account_loops(*driver, 2, Instrumentation::chunks, [&](kernels::LoopRunner& run) {
           for (int loop = 0; loop < 3; ++loop) {
-            run.for_index(n, [&](std::int64_t) {
+            run.for_index(n, {}, [&](std::int64_t) {
               measured[static_cast<std::size_t>(omp_get_thread_num())] += spin(unit);
             });
           }
@@ -157,7 +159,7 @@ TEST(OverheadKnownAnswer, InstrumentOffRecordsNothing) {
   std::int64_t visited = 0;
   const harness::OverheadAccounting a =
       account_loops(*driver, 2, Instrumentation::off, [&](kernels::LoopRunner& run) {
-        run.for_index(50, [&](std::int64_t) {
+        run.for_index(50, {}, [&](std::int64_t) {
 #pragma omp atomic
           ++visited;
         });
@@ -187,7 +189,7 @@ TEST(OverheadKnownAnswer, ASkewedLoopShowsTheImbalanceItWasGiven) {
       const harness::OverheadAccounting a =
           account_loops(*driver, 2, level, [&](kernels::LoopRunner& run) {
             for (int l = 0; l < loops; ++l) {
-              run.for_index(2, [&](std::int64_t k) {
+              run.for_index(2, {}, [&](std::int64_t k) {
                 took[static_cast<std::size_t>(2 * l + k)] = spin(skewed_work(k, unit));
               });
             }
@@ -239,7 +241,7 @@ TEST(OverheadKnownAnswer, ASlowerBarrierShowsAsParallelOverhead) {
   const double unit = 0.002, delay = 0.01;
   const int loops = 5;
   auto balanced = [&](kernels::LoopRunner& run) {
-    for (int l = 0; l < loops; ++l) run.for_index(2, [&](std::int64_t) { spin(unit); });
+    for (int l = 0; l < loops; ++l) run.for_index(2, {}, [&](std::int64_t) { spin(unit); });
   };
   for (const Instrumentation level : {Instrumentation::loops, Instrumentation::chunks}) {
     expect_within_attempts(5, [&]() -> std::string {

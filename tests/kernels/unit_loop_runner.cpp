@@ -81,7 +81,7 @@ std::vector<int> visits(const kernels::Simulation& sim, schedulers::LoopDriver& 
 #pragma omp parallel num_threads(threads)
   {
     kernels::LoopRunner run(driver, sim.mesh(), lists, kernels::Instrumentation::off, nullptr);
-    run.for_each(kind, [&](std::int64_t id) {
+    run.for_each(kind, kernels::LoopBytes{}, [&](std::int64_t id) {
 #pragma omp atomic
       ++count[static_cast<std::size_t>(id)];
     });
