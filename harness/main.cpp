@@ -227,7 +227,8 @@ int main(int argc, char** argv) {
   std::filesystem::path sweep_trace_dir;
   auto* sweep_trace_option = sweep_command->add_option(
       "--trace", sweep_trace_dir,
-      "One extra, uncounted traced run per row: DIR/<scheduler>-<threads>t.cbtrace + timeline");
+      "Extra, uncounted traced runs per row (--repeat of them, at most 3; the median kept): "
+      "DIR/<scheduler>-<threads>t.cbtrace + timeline");
   std::filesystem::path sweep_trace_overheads;
   auto* sweep_trace_overheads_option = sweep_command->add_option(
       "--trace-overheads", sweep_trace_overheads,

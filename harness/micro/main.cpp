@@ -4,12 +4,16 @@
 #include <benchmark/benchmark.h>
 
 #include "harness/micro/smoke.hpp"
+#include "harness/run/disturbance.hpp"
 
 int main(int argc, char** argv) {
   if (clothbench::micro::smoke()) {
     benchmark::AddCustomContext("clothbench_micro_smoke",
                                 "tiny sizes (CLOTHBENCH_MICRO_SMOKE=1): not measurements");
   }
+  // The scheduling costs depend on it (threads that sleep at a barrier take tens of us to wake):
+  // the predictor's overhead model records it (harness/predict/overhead_model.hpp).
+  benchmark::AddCustomContext("omp_wait_policy", clothbench::harness::omp_wait_policy());
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

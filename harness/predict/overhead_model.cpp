@@ -89,15 +89,19 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   OverheadModel model;
   model.measured = true;
   model.measured_threads = team;
+  if (document.contains("context") && document["context"].is_object() &&
+      document["context"].contains("omp_wait_policy")) {
+    model.wait_policy = document["context"]["omp_wait_policy"].get<std::string>();
+  }
   model.loop_seconds_at_one = static_one.loop_seconds;
   model.loop_seconds_at_measured = static_team.loop_seconds;
   model.loop_seconds = std::max(0.0, static_team.loop_seconds - static_one.loop_seconds);
   model.source = fmt::format(
-      "{}: scheduling_overhead medians at {} threads minus those at 1 thread, added above 1 "
-      "thread only (the trace's times hold the 1-thread costs); per loop {:.2f} us = "
-      "static@blocks {:.2f} - {:.2f} us",
-      file.string(), team, 1e6 * model.loop_seconds, 1e6 * static_team.loop_seconds,
-      1e6 * static_one.loop_seconds);
+      "{}: scheduling_overhead medians at {} threads minus those at 1 thread (OMP_WAIT_POLICY "
+      "{}), added above 1 thread only (the trace's times hold the 1-thread costs); per loop "
+      "{:.2f} us = static@blocks {:.2f} - {:.2f} us",
+      file.string(), team, model.wait_policy, 1e6 * model.loop_seconds,
+      1e6 * static_team.loop_seconds, 1e6 * static_one.loop_seconds);
   std::vector<std::string> one_size;
   for (const auto& [spec, at] : by_spec) {
     const bool disturbed =
@@ -133,9 +137,23 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   return model;
 }
 
+std::string wait_policy_mismatch(const OverheadModel& model, const std::string& trace_policy) {
+  const auto recorded = [](const std::string& p) { return p == "active" || p == "passive"; };
+  if (!model.measured || !recorded(model.wait_policy) || !recorded(trace_policy) ||
+      model.wait_policy == trace_policy) {
+    return {};
+  }
+  return fmt::format(
+      "the overheads were measured with OMP_WAIT_POLICY {} but the traced run had {}: a thread "
+      "that sleeps at a barrier takes far longer to start the next loop than one that spins, so "
+      "the per-loop cost does not carry over (measure it again with OMP_WAIT_POLICY={})",
+      model.wait_policy, trace_policy, trace_policy);
+}
+
 nlohmann::json overhead_model_json(const OverheadModel& model) {
   return {{"source", model.source},
           {"measured_threads", model.measured_threads},
+          {"wait_policy", model.wait_policy},
           {"loop_seconds", model.loop_seconds},
           {"loop_seconds_at_one_thread", model.loop_seconds_at_one},
           {"loop_seconds_at_measured_threads", model.loop_seconds_at_measured},
@@ -152,6 +170,7 @@ OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::
     model.loop_seconds_at_measured = stored.at("loop_seconds_at_measured_threads").get<double>();
     model.dispatch_seconds = stored.at("dispatch_seconds").get<std::map<std::string, double>>();
     model.disturbed = stored.at("disturbed").get<std::vector<std::string>>();
+    model.wait_policy = stored.value("wait_policy", std::string("not recorded"));
     model.source = origin + ", copied from " + stored.at("source").get<std::string>();
   } catch (const nlohmann::json::exception& error) {
     throw std::invalid_argument(origin + ": overheads: " + error.what());

@@ -24,7 +24,13 @@ struct OverheadModel {
   std::string source = "none: overheads assumed zero (no --overheads FILE; the trace stores none)";
   bool measured = false;
   int measured_threads = 0;  ///< team size P of the micro-benchmark run
-  /// Per loop, added above 1 thread: static@blocks' overhead at P - at 1 thread, at least 0.
+  /// OMP_WAIT_POLICY of the micro-benchmark run ("active", "passive", "unset"; "not recorded"
+  /// for files and headers that predate it): sleeping waits cost far more per loop.
+  std::string wait_policy = "not recorded";
+  /// Per loop, above 1 thread: static@blocks' overhead at P - at 1 thread, at least 0. The
+  /// replay lets every thread but the first start each loop this much later (the fork's
+  /// wake-up, which dominates when waiting threads sleep), so a self-scheduled clause absorbs
+  /// part of it where static cannot (schedule_simulation.hpp).
   double loop_seconds = 0.0;
   double loop_seconds_at_one = 0.0;       ///< static@blocks' per-loop overhead at 1 thread
   double loop_seconds_at_measured = 0.0;  ///< static@blocks' per-loop overhead at P threads
@@ -54,6 +60,10 @@ struct OverheadModel {
 /// naming the file when it cannot be read or holds no static@blocks result at both 1 and P > 1
 /// threads.
 OverheadModel read_overhead_model(const std::filesystem::path& file);
+
+/// The note a prediction carries when `model` was measured under another OMP_WAIT_POLICY than
+/// the traced run's `trace_policy` (both recorded), else empty.
+std::string wait_policy_mismatch(const OverheadModel& model, const std::string& trace_policy);
 
 /// The model as stored in a trace's header ("overheads"): every figure and the source text.
 nlohmann::json overhead_model_json(const OverheadModel& model);

@@ -58,6 +58,12 @@ PredictCommand::PredictCommand(CLI::App& app) : schedulers_(kPaperSchedulers) {
                        "With --validate: the sweep's `--trace DIR` (its *-1t.cbtrace files)");
   command_->add_option("--from", from_file_,
                        "With --validate: predict every row from this trace instead");
+  command_->add_option(
+      "--loop-times", loop_times_file_,
+      "A trace of the same run with fewer chunks (e.g. static at 1 thread): each loop's time, the "
+      "loop spans and the time outside loops are taken from it, and TRACE (e.g. guided:1 at 1 "
+      "thread) gives only how each loop's time splits over its iterations, so the cost of "
+      "recording hundreds of thousands of chunks drops out (--validate picks it by itself)");
 }
 
 int PredictCommand::run() {
@@ -101,6 +107,15 @@ int PredictCommand::run() {
     workload = build_workload(read_trace(trace_file_), trace_file_.string());
   } catch (const std::exception& error) {
     return bad(fmt::format("TRACE: {}", error.what()));
+  }
+  if (!loop_times_file_.empty()) {
+    try {
+      const TraceWorkload totals =
+          build_workload(read_trace(loop_times_file_), loop_times_file_.string());
+      take_loop_times(workload, totals, trace_file_.string(), loop_times_file_.string());
+    } catch (const std::exception& error) {
+      return bad(fmt::format("--loop-times: {}", error.what()));
+    }
   }
   Prediction prediction;
   try {

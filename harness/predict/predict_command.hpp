@@ -41,6 +41,7 @@ class PredictCommand {
   std::filesystem::path validate_file_;
   std::filesystem::path trace_dir_;
   std::filesystem::path from_file_;
+  std::filesystem::path loop_times_file_;
 };
 
 }  // namespace clothbench::harness

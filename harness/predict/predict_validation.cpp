@@ -72,14 +72,35 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
   // The traces of one sweep were written with the same --trace-overheads (or none).
   v.overheads = choose_overheads(overheads, sources.front()->workload);
   v.bandwidth = choose_bandwidth(bandwidth, sources.front()->workload);
-  auto choose = [&](schedulers::IterationSpace space) -> const Source* {
-    const Source* best = nullptr;
+  auto choose = [&](schedulers::IterationSpace space) -> Source* {
+    Source* best = nullptr;
     for (const auto& s : sources) {
       if (s->workload.space != space) continue;
       if (best == nullptr || s->chunks > best->chunks) best = s.get();
     }
     return best;
   };
+  // The finest trace of each space takes its loop times from the coarsest one of the same
+  // space (take_loop_times: the tracing cost of its many chunks drops out).
+  if (!from) {
+    for (const schedulers::IterationSpace space :
+         {schedulers::IterationSpace::blocks, schedulers::IterationSpace::active}) {
+      Source* finest = choose(space);
+      const Source* coarsest = nullptr;
+      for (const auto& s : sources) {
+        if (s->workload.space != space) continue;
+        if (coarsest == nullptr || s->chunks < coarsest->chunks) coarsest = s.get();
+      }
+      if (finest == nullptr || coarsest == nullptr || coarsest->chunks >= finest->chunks) continue;
+      try {
+        take_loop_times(finest->workload, coarsest->workload, finest->file.filename().string(),
+                        coarsest->file.filename().string());
+      } catch (const std::invalid_argument& error) {
+        v.notes.push_back(
+            fmt::format("loop times not taken from a coarser trace: {}", error.what()));
+      }
+    }
+  }
   for (const auto& row : sweep.at("rows")) {
     const nlohmann::json& t = row["time_seconds"];
     if (!t.is_object() || !t["median"].is_number()) continue;
@@ -104,6 +125,9 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
                                          choose_overheads(overheads, source->workload),
                                          choose_bandwidth(bandwidth, source->workload));
       out.source = source->file.filename().string();
+      if (!source->workload.loop_times_from.empty()) {
+        out.source += " (loop times: " + source->workload.loop_times_from + ")";
+      }
       out.predicted_time = p.time;
       out.predicted_imbalance_percent = p.imbalance_percent;
       out.error_percent = 100.0 * (p.time - out.measured_time) / out.measured_time;
@@ -145,6 +169,7 @@ std::string format_validation_markdown(const Validation& v) {
                        sum / static_cast<double>(v.rows.size()), worst);
   }
   for (const std::string& s : v.skipped) out << "Not predicted: " << s << "\n";
+  for (const std::string& s : v.notes) out << "Note: " << s << "\n";
   return out.str();
 }
 
@@ -172,7 +197,8 @@ nlohmann::json validation_json(const Validation& v) {
           {"overheads", v.overheads.source},
           {"bandwidth", v.bandwidth.source},
           {"rows", rows},
-          {"skipped", v.skipped}};
+          {"skipped", v.skipped},
+          {"notes", v.notes}};
 }
 
 }  // namespace clothbench::harness

@@ -35,6 +35,7 @@ struct Validation {
   std::string machine_load;  ///< the sweep's load average at its start, as recorded
   std::vector<ValidationRow> rows;
   std::vector<std::string> skipped;  ///< rows that could not be predicted, with the reason
+  std::vector<std::string> notes;    ///< e.g. traces whose loop times could not be combined
   OverheadModel overheads;
   BandwidthModel bandwidth;
 };
@@ -42,10 +43,11 @@ struct Validation {
 /// Predicts every row of `sweep` (a loaded sweep document) that has a measured time. The
 /// source trace of a row: `from` when given, else the 1-thread trace in `trace_dir` with the
 /// most chunks over the row's iteration space (the finest per-iteration costs), else one over
-/// blocks. Costs: `overheads` when given, else each source trace's stored ones, else zero
-/// (Validation::overheads: those of the first row); the bandwidth ceiling likewise from
-/// `bandwidth` or the traces' stored triad. Throws std::invalid_argument when `trace_dir`
-/// holds no readable 1-thread trace.
+/// blocks; without `from`, that trace takes its loop times from the trace of the same space
+/// with the fewest chunks (take_loop_times), when that one has fewer. Costs: `overheads` when
+/// given, else each source trace's stored ones, else zero (Validation::overheads: those of the
+/// first row); the bandwidth ceiling likewise from `bandwidth` or the traces' stored triad. Throws
+/// std::invalid_argument when `trace_dir` holds no readable 1-thread trace.
 Validation validate_prediction(const nlohmann::json& sweep, const std::string& sweep_file,
                                const std::filesystem::path& trace_dir,
                                const std::optional<std::filesystem::path>& from,

@@ -38,8 +38,8 @@ PredictedRow predict_row(const TraceWorkload& workload, const ScheduleModel& mod
   row.bandwidth = bandwidth.at(threads);
   double loop_wall = 0.0, busiest_sum = 0.0, mean_sum = 0.0;
   for (const TracedLoop& loop : workload.loops) {
-    const LoopSimulation s =
-        simulate_loop(model, active ? loop.active : loop.costs, threads, row.dispatch_seconds);
+    const LoopSimulation s = simulate_loop(model, active ? loop.active : loop.costs, threads,
+                                           row.dispatch_seconds, false, per_loop);
     double sum = 0.0;
     for (double w : s.thread_work) sum += w;
     // The ceiling: no faster than its bytes at B(P); a bound loop is stretched as a whole. A
@@ -61,7 +61,7 @@ PredictedRow predict_row(const TraceWorkload& workload, const ScheduleModel& mod
     }
     busiest_sum += stretch * *std::max_element(s.thread_work.begin(), s.thread_work.end());
     mean_sum += stretch * sum / threads;
-    loop_wall += per_loop + makespan;
+    loop_wall += makespan;
     row.chunks += s.chunks;
   }
   row.sequential_overhead = workload.sequential_seconds;
@@ -169,6 +169,13 @@ std::string format_prediction_markdown(const Prediction& p) {
       w.threads == 1 ? "" : "s", w.openmp_runtime, w.loops.size(),
       w.machine_cores > 0 ? std::to_string(w.machine_cores) : "?", w.busy_seconds,
       w.sequential_seconds, w.run_seconds);
+  if (!w.loop_times_from.empty()) {
+    out << fmt::format(
+        "Loop times, loop spans and time outside loops from {} (the same run with fewer chunks, "
+        "so less tracing cost); the trace above gives only how each loop's time splits over its "
+        "iterations.\n",
+        w.loop_times_from);
+  }
   out << fmt::format("Overheads: {}.\n", p.overheads.source);
   out << fmt::format("Bandwidth ceiling: {}.\n", p.bandwidth.source);
   if (p.bandwidth.measured()) {
@@ -249,7 +256,8 @@ nlohmann::json prediction_json(const Prediction& p) {
             {"loop_instances_without_bytes", w.loops_without_bytes},
             {"busy_seconds", w.busy_seconds},
             {"sequential_seconds", w.sequential_seconds},
-            {"run_seconds", w.run_seconds}}},
+            {"run_seconds", w.run_seconds},
+            {"loop_times_from", w.loop_times_from}}},
           {"overheads",
            {{"source", p.overheads.source},
             {"measured", p.overheads.measured},

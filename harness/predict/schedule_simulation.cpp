@@ -17,8 +17,8 @@ namespace {
 /// Threads by clock, earliest first, ties to the lowest thread number.
 class ThreadClocks {
  public:
-  explicit ThreadClocks(int threads) {
-    for (int t = 0; t < threads; ++t) queue_.emplace(0.0, t);
+  explicit ThreadClocks(const std::vector<double>& start) {
+    for (std::size_t t = 0; t < start.size(); ++t) queue_.emplace(start[t], static_cast<int>(t));
   }
   /// The next free thread and its clock (removed until put back).
   std::pair<double, int> take() {
@@ -55,10 +55,11 @@ bool ScheduleModel::fixed_assignment() const {
 }
 
 LoopSimulation simulate_loop(const ScheduleModel& model, const IterationCosts& costs, int threads,
-                             double dispatch_seconds, bool keep_assignment) {
+                             double dispatch_seconds, bool keep_assignment, double start_delay) {
   LoopSimulation out;
   out.thread_work.assign(static_cast<std::size_t>(threads), 0.0);
-  std::vector<double> finish(static_cast<std::size_t>(threads), 0.0);
+  std::vector<double> finish(static_cast<std::size_t>(threads), start_delay);
+  finish[0] = 0.0;
   const std::int64_t n = costs.size();
   auto run = [&](int thread, std::int64_t begin, std::int64_t end) {
     const double work = costs.range(begin, end);
@@ -85,7 +86,7 @@ LoopSimulation simulate_loop(const ScheduleModel& model, const IterationCosts& c
     }
   } else {
     // Self-scheduled: chunks in grab order, each to the earliest free thread.
-    ThreadClocks clocks(threads);
+    ThreadClocks clocks(finish);
     const schedulers::TrapezoidChunks trapezoid(n, threads, k);
     std::int64_t next = 0;  // first iteration not handed out (dynamic, guided, gss)
     for (std::int64_t j = 0;; ++j) {

@@ -50,8 +50,12 @@ struct LoopSimulation {
 };
 
 /// Simulates `model` over the iterations of `costs` with `threads` threads and
-/// `dispatch_seconds` per chunk; `keep_assignment` fills LoopSimulation::assignment.
+/// `dispatch_seconds` per chunk; every thread but the first starts the loop `start_delay`
+/// seconds after it (the fork's wake-up: under a self-scheduled clause the first thread takes
+/// chunks meanwhile, under a fixed assignment the late threads' shares end later);
+/// `keep_assignment` fills LoopSimulation::assignment.
 LoopSimulation simulate_loop(const ScheduleModel& model, const IterationCosts& costs, int threads,
-                             double dispatch_seconds, bool keep_assignment = false);
+                             double dispatch_seconds, bool keep_assignment = false,
+                             double start_delay = 0.0);
 
 }  // namespace clothbench::harness

@@ -5,6 +5,7 @@
 
 #include "harness/predict/bandwidth_model.hpp"
 #include "harness/predict/overhead_model.hpp"
+#include "harness/run/disturbance.hpp"
 
 namespace clothbench::harness {
 
@@ -12,6 +13,9 @@ nlohmann::json trace_model_headers(const std::optional<std::filesystem::path>& o
                                    const std::optional<std::filesystem::path>& bandwidth,
                                    bool traced, const std::string& trace_flag) {
   nlohmann::json headers = nlohmann::json::object();
+  // What the traced run's loops paid to wake sleeping threads depends on it (predict compares
+  // it with the overhead model's).
+  headers["omp_wait_policy"] = omp_wait_policy();
   auto copy = [&](const std::optional<std::filesystem::path>& file, const std::string& flag,
                   const std::string& key, auto&& read) {
     if (!file) return;

@@ -11,8 +11,9 @@
 
 namespace clothbench::harness {
 
-/// The header entries {"overheads": ..., "bandwidth": ...}, each present when its file is
-/// given (an empty object when neither is). `traced`: --trace was given; `trace_flag` names it
+/// The header entries {"omp_wait_policy": this process's, "overheads": ..., "bandwidth": ...},
+/// the last two present when their file is given. `traced`: --trace was given; `trace_flag` names
+/// it
 /// ("--trace FILE", "--trace DIR"). Throws std::invalid_argument naming the flag, and the file
 /// when it cannot be read, or the flag when it is given without --trace.
 nlohmann::json trace_model_headers(const std::optional<std::filesystem::path>& overheads,

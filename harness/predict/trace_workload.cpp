@@ -30,6 +30,10 @@ double IterationCosts::prefix(std::int64_t i) const {
   return cumulative_[s] + segment * static_cast<double>(i - start_[s]) / length;
 }
 
+void IterationCosts::scale(double factor) {
+  for (double& c : cumulative_) c *= factor;
+}
+
 double IterationCosts::range(std::int64_t begin, std::int64_t end) const {
   return end > begin ? prefix(end) - prefix(begin) : 0.0;
 }
@@ -43,6 +47,7 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
   w.space = w.scheduler.ends_with("@active") ? schedulers::IterationSpace::active
                                              : schedulers::IterationSpace::blocks;
   w.openmp_runtime = "unknown";
+  w.wait_policy = h.value("omp_wait_policy", std::string("not recorded"));
   if (h.contains("machine") && h["machine"].is_object()) {
     const nlohmann::json& m = h["machine"];
     if (m.contains("openmp") && m["openmp"].contains("runtime")) {
@@ -103,7 +108,7 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
       out.costs.add(chunk.end - chunk.begin, seconds);
       if (w.space == schedulers::IterationSpace::blocks && out.kind >= 0) {
         out.active.add(chunk.elements, seconds);
-        if (chunk.elements == 0) w.dropped_for_active_seconds += seconds;
+        if (chunk.elements == 0) out.dropped_for_active_seconds += seconds;
       }
       covered = chunk.end;
       elements += chunk.elements;
@@ -118,6 +123,7 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
           "{}: loop instance {}: its chunks cover [0, {}) of [0, {})", name, i, covered, loop.n));
     }
     if (w.space == schedulers::IterationSpace::active || out.kind < 0) out.active = out.costs;
+    w.dropped_for_active_seconds += out.dropped_for_active_seconds;
   }
   if (c != trace.chunks.size()) {
     throw std::invalid_argument(
@@ -129,9 +135,61 @@ TraceWorkload build_workload(const TraceDocument& trace, const std::string& name
   return w;
 }
 
+void take_loop_times(TraceWorkload& fine, const TraceWorkload& totals, const std::string& fine_name,
+                     const std::string& totals_name) {
+  const auto refuse = [&](const std::string& why) {
+    throw std::invalid_argument(
+        fmt::format("{} and {} are not traces of the same run over the same iteration space: {}",
+                    fine_name, totals_name, why));
+  };
+  if (fine.space != totals.space) refuse("one is over blocks, the other over the Active-Lists");
+  if (fine.loops.size() != totals.loops.size()) {
+    refuse(fmt::format("{} and {} loop instances", fine.loops.size(), totals.loops.size()));
+  }
+  double busy = 0.0, dropped = 0.0, spans = 0.0;
+  for (std::size_t i = 0; i < fine.loops.size(); ++i) {
+    TracedLoop& f = fine.loops[i];
+    const TracedLoop& t = totals.loops[i];
+    if (f.step != t.step || f.site != t.site || f.costs.size() != t.costs.size()) {
+      refuse(fmt::format(
+          "loop instance {}: step {} site {} over {} iterations against step {} site {} over {}", i,
+          f.step, f.site, f.costs.size(), t.step, t.site, t.costs.size()));
+    }
+    const double want = t.costs.total();
+    const double have = f.costs.total();
+    if (have > 0.0) {
+      const double factor = want / have;
+      f.costs.scale(factor);
+      f.active.scale(factor);
+      f.dropped_for_active_seconds *= factor;
+    } else {  // the fine trace saw no time in this instance: spread the total evenly
+      f.costs = IterationCosts{};
+      f.costs.add(t.costs.size(), want);
+      const std::int64_t entries = f.active.size();
+      f.active = IterationCosts{};
+      f.active.add(entries, want);
+    }
+    f.span_seconds = t.span_seconds;
+    busy += f.costs.total();
+    dropped += f.dropped_for_active_seconds;
+    spans += f.span_seconds;
+  }
+  fine.busy_seconds = busy;
+  fine.dropped_for_active_seconds = dropped;
+  fine.loop_span_seconds = spans;
+  fine.run_seconds = totals.run_seconds;
+  fine.sequential_seconds = totals.sequential_seconds;
+  fine.loop_times_from = totals_name;
+}
+
 OverheadModel choose_overheads(const std::optional<OverheadModel>& given,
                                const TraceWorkload& workload) {
-  return given.value_or(workload.stored_overheads.value_or(OverheadModel{}));
+  OverheadModel model = given.value_or(workload.stored_overheads.value_or(OverheadModel{}));
+  if (const std::string warning = wait_policy_mismatch(model, workload.wait_policy);
+      !warning.empty()) {
+    model.source += "; WARNING: " + warning;
+  }
+  return model;
 }
 
 BandwidthModel choose_bandwidth(const std::optional<BandwidthModel>& given,

@@ -37,6 +37,8 @@ class IterationCosts {
   [[nodiscard]] double range(std::int64_t begin, std::int64_t end) const;
   /// Seconds of all iterations: the segments' sum, in the order they were added.
   [[nodiscard]] double total() const { return cumulative_.empty() ? 0.0 : cumulative_.back(); }
+  /// Multiplies every segment's cost by `factor` (>= 0).
+  void scale(double factor);
 
  private:
   [[nodiscard]] double prefix(std::int64_t i) const;
@@ -52,6 +54,7 @@ struct TracedLoop {
   IterationCosts costs;       ///< over the trace's own iteration space
   IterationCosts active;      ///< over the Active-Lists' space (from a trace over blocks)
   double span_seconds = 0.0;  ///< the traced run's loop span (entry to exit over all threads)
+  double dropped_for_active_seconds = 0.0;  ///< busy seconds of chunks without a live element
   /// Unavoidable bytes the instance moves (bytes per element x elements); negative when the
   /// trace does not record them (format 1).
   double bytes = -1.0;
@@ -64,6 +67,7 @@ struct TraceWorkload {
   std::string scene;
   std::string openmp_runtime;  ///< "libgomp", "libomp", ... ("unknown" when not recorded)
   int machine_cores = 0;       ///< cores of the traced machine (0: not recorded)
+  std::string wait_policy = "not recorded";  ///< the traced run's OMP_WAIT_POLICY
   schedulers::IterationSpace space = schedulers::IterationSpace::blocks;
   std::vector<TracedLoop> loops;
   double busy_seconds = 0.0;        ///< sum of all chunk durations
@@ -78,7 +82,21 @@ struct TraceWorkload {
   /// The triad the trace's header stores (`run|sweep --trace-bandwidth`), if any.
   std::optional<BandwidthModel> stored_bandwidth;
   std::int64_t loops_without_bytes = 0;  ///< loop instances whose bytes are not recorded
+  /// When take_loop_times replaced the loops' times: the trace they came from, else empty.
+  std::string loop_times_from;
 };
+
+/// Takes every loop instance's time, the loop spans and the time outside loops from `totals`,
+/// a trace of the same run with fewer chunks, and keeps only how `fine` split each loop's time
+/// over its iterations (each instance's costs scaled to `totals`'s busy time of the instance).
+/// Recording a chunk costs time inside and between chunks (clock reads, the record, its cache
+/// lines: ~50-130 ns a chunk on the 2-core VM), which a trace of one chunk per block (dynamic:1
+/// or guided:1 at 1 thread, the finest split) adds hundreds of thousands of times; a static
+/// trace (one chunk per thread and loop) adds it once per loop. Throws std::invalid_argument
+/// naming both files when they are not traces of the same run (loop instances, steps, sites or
+/// iteration counts differ) or not over the same iteration space.
+void take_loop_times(TraceWorkload& fine, const TraceWorkload& totals, const std::string& fine_name,
+                     const std::string& totals_name);
 
 /// The costs a prediction from `workload` uses: `given` (--overheads) when set, else the
 /// trace's stored ones, else zero (each model's source text says which).

@@ -51,39 +51,70 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
   return run;
 }
 
-/// sweep --trace: one more run of the row with the per-chunk trace, after its measured runs
-/// and not counted (tracing adds two clock reads per chunk: the measured runs stay untraced).
-/// Writes DIR/<scheduler>-<threads>t.cbtrace and its timeline; the header says whether the
-/// final state equals the sweep's reference bit for bit, and holds `models` (the predictor's
-/// costs and bandwidth, trace_model_headers).
-void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads,
+/// sweep --trace: more runs of the row with the per-chunk trace, after its measured runs and
+/// not counted (tracing adds two clock reads per chunk: the measured runs stay untraced).
+/// `runs` traced runs (the sweep's --repeat, at most 3), of which the one with the median time
+/// is kept: one run on a VM can be 10-15 % off its row's median, and the predictor replays
+/// the trace's times. A trace of more than kLargestRepeatedTraceBytes is kept from its first
+/// run (three of them would have to be held at once). Writes DIR/<scheduler>-<threads>t.cbtrace and
+/// its timeline; the header says how many runs were traced, whether the final state equals the
+/// sweep's reference bit for bit, and holds `models` (the predictor's costs and bandwidth,
+/// trace_model_headers).
+constexpr double kLargestRepeatedTraceBytes = 256.0 * 1024 * 1024;
+
+void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads, int runs,
                     const std::string& reference_bytes, const std::filesystem::path& dir,
                     const json& models, bool quiet) {
   omp_set_num_threads(threads);
-  kernels::Simulation simulation(scene.simulation);
-  kernels::ChunkTrace trace;
-  trace.start(threads, kTraceRecordsPerThread);
-  simulation.set_planned_steps(scene.steps);
-  double seconds = 0.0;
-  for (int k = 0; k < scene.steps; ++k) {
-    seconds += simulation.step(driver, kernels::Instrumentation::off, nullptr, &trace).seconds;
+  struct Traced {
+    double seconds = 0.0;
+    std::unique_ptr<kernels::ChunkTrace> trace;
+    std::string bytes;
+  };
+  std::vector<Traced> traced;
+  std::vector<double> all_seconds;
+  for (int r = 0; r < std::max(1, runs); ++r) {
+    kernels::Simulation simulation(scene.simulation);
+    Traced t;
+    t.trace = std::make_unique<kernels::ChunkTrace>();
+    t.trace->start(threads, kTraceRecordsPerThread);
+    simulation.set_planned_steps(scene.steps);
+    for (int k = 0; k < scene.steps; ++k) {
+      t.seconds +=
+          simulation.step(driver, kernels::Instrumentation::off, nullptr, t.trace.get()).seconds;
+    }
+    t.bytes = state_bytes(simulation);
+    all_seconds.push_back(t.seconds);
+    const bool large = static_cast<double>(t.trace->chunk_count()) *
+                           static_cast<double>(sizeof(kernels::ChunkRecord)) >
+                       kLargestRepeatedTraceBytes;
+    traced.push_back(std::move(t));
+    if (large) break;  // a trace this large is kept from one run (memory)
   }
+  std::vector<std::size_t> order(traced.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return traced[a].seconds < traced[b].seconds; });
+  const Traced& kept = traced[order[(order.size() - 1) / 2]];
   std::string name = driver.name();
   for (char& c : name) {
     if (c == ':' || c == '@') c = '_';
   }
-  const std::string bytes = state_bytes(simulation);
+  const bool identical = std::all_of(traced.begin(), traced.end(),
+                                     [&](const Traced& t) { return t.bytes == reference_bytes; });
   nlohmann::json context = {{"machine", machine_context()},
                             {"scene", scene.name},
                             {"scene_file", scene.file.string()},
                             {"scheduler", driver.name()},
                             {"threads", threads},
                             {"steps", scene.steps},
-                            {"state_digest", fnv1a64_hex(bytes)},
-                            {"bit_identical_to_reference", bytes == reference_bytes}};
+                            {"traced_runs", traced.size()},
+                            {"traced_runs_seconds", all_seconds},
+                            {"state_digest", fnv1a64_hex(kept.bytes)},
+                            {"bit_identical_to_reference", identical}};
   context.update(models);
-  write_trace_outputs(trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context, seconds,
-                      std::nullopt, quiet);
+  write_trace_outputs(*kept.trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context,
+                      kept.seconds, std::nullopt, quiet);
 }
 
 /// Writes sweep.json, table.md and table.csv into `dir` (atomically, each).
@@ -283,8 +314,8 @@ int run_sweep(const SweepOptions& options) {
       }
     }
     if (options.trace_dir) {
-      traced_row_run(scene, *driver, n, reference_bytes, *options.trace_dir, trace_models,
-                     options.quiet);
+      traced_row_run(scene, *driver, n, std::min(3, options.repeat), reference_bytes,
+                     *options.trace_dir, trace_models, options.quiet);
       if (stop.signal() != 0) return std::nullopt;
     }
     json binding = {{"mode", to_string(options.bind)},

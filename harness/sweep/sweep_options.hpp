@@ -39,7 +39,8 @@ struct SweepOptions {
   bool resume = false;               ///< skip rows already in OUT/sweep.json
   bool quiet = false;                ///< no progress bar, no per-row lines
   bool plots = true;                 ///< run gnuplot at the end
-  /// --trace DIR: one extra traced run per row, DIR/<scheduler>-<threads>t.cbtrace (+ timeline)
+  /// --trace DIR: extra traced runs per row (min(--repeat, 3), the median kept),
+  /// DIR/<scheduler>-<threads>t.cbtrace (+ timeline)
   std::optional<std::filesystem::path> trace_dir;
   /// --trace-overheads FILE: scheduling costs copied into every trace's header (predict uses
   /// them); see harness/predict/overhead_model.hpp.

@@ -215,10 +215,29 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
       "predict --validate " + clothbench_test::quote((dir / "out" / "sweep.json").string()) +
       " --trace-dir " + clothbench_test::quote((dir / "traces").string()));
   ASSERT_EQ(out.exit_code, 0) << out.output;
-  EXPECT_THAT(out.output, HasSubstr("| static@blocks | 2 | dynamic_1_blocks-1t.cbtrace |"));
+  // The finest trace over blocks (one chunk per block) takes its loop times from the static
+  // one (one chunk per loop), which recording slowed less.
+  EXPECT_THAT(out.output, HasSubstr("| static@blocks | 2 | dynamic_1_blocks-1t.cbtrace (loop "
+                                    "times: static_blocks-1t.cbtrace) |"));
   EXPECT_THAT(out.output,
               HasSubstr("| active-lists@active | 2 | active-lists_active-1t.cbtrace |"));
   EXPECT_THAT(out.output, HasSubstr("6 rows: mean |error|"));
+
+  // The same by hand: `predict TRACE --loop-times COARSER`, and a trace of another iteration
+  // space refused by name.
+  const std::string fine =
+      clothbench_test::quote((dir / "traces" / "dynamic_1_blocks-1t.cbtrace").string());
+  const auto by_hand = clothbench_test::run(
+      "predict " + fine + " --threads 1,2 --schedulers static --loop-times " +
+      clothbench_test::quote((dir / "traces" / "static_blocks-1t.cbtrace").string()));
+  ASSERT_EQ(by_hand.exit_code, 0) << by_hand.output;
+  EXPECT_THAT(by_hand.output, HasSubstr("Loop times, loop spans and time outside loops from"));
+  const auto refused = clothbench_test::run(
+      "predict " + fine + " --loop-times " +
+      clothbench_test::quote((dir / "traces" / "active-lists_active-1t.cbtrace").string()));
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_THAT(refused.output, HasSubstr("--loop-times"));
+  EXPECT_THAT(refused.output, HasSubstr("one is over blocks, the other over the Active-Lists"));
 }
 
 /// A triad JSON as clothbench-micro writes it, at 1 and 2 threads, with `rate` bytes per second
@@ -275,8 +294,9 @@ TEST(PredictCommand, UsesTheOverheadsAndTriadStoredInTheTraceHeader) {
   EXPECT_EQ(w.stored_bandwidth->triad, (std::map<int, double>{{1, 5e9}, {2, 5e9}}));
   EXPECT_EQ(w.loops_without_bytes, 0);
 
-  // predict without --overheads takes them from the header and says so; the 2-thread time
-  // holds 4 us per loop instance more than the zero-overhead prediction's.
+  // predict without --overheads takes them from the header and says so; the 2-thread time is
+  // the prediction with the header's model, in which the second thread starts each loop 4 us
+  // late: longer than the zero-overhead prediction, by at most 4 us per loop instance.
   const fs::path with = dir / "stored.json";
   const auto out = clothbench_test::run("predict " + clothbench_test::quote(trace.string()) +
                                         " --threads 2 --schedulers static --json " +
@@ -290,8 +310,12 @@ TEST(PredictCommand, UsesTheOverheadsAndTriadStoredInTheTraceHeader) {
   const harness::Prediction p =
       harness::predict(w, trace.string(), {"static"}, {2}, zero, *w.stored_bandwidth);
   const auto stored = clothbench_test::read_json(with);
-  EXPECT_NEAR(stored["rows"][0]["time_seconds"].get<double>(),
-              p.rows[0].time + 4e-6 * static_cast<double>(w.loops.size()), 1e-9);
+  const harness::Prediction with_header = harness::predict(
+      w, trace.string(), {"static"}, {2}, *w.stored_overheads, *w.stored_bandwidth);
+  const double time = stored["rows"][0]["time_seconds"].get<double>();
+  EXPECT_NEAR(time, with_header.rows[0].time, 1e-12);
+  EXPECT_GT(time, p.rows[0].time);
+  EXPECT_LE(time, p.rows[0].time + 4e-6 * static_cast<double>(w.loops.size()) + 1e-12);
   // --overheads wins over the header.
   const auto given = clothbench_test::run("predict " + clothbench_test::quote(trace.string()) +
                                           " --threads 2 --schedulers static --overheads " +

@@ -2,7 +2,8 @@
 // out by hand: uniform work under static, one heavy iteration under static and dynamic:1,
 // dispatch costs per chunk, sequential time, the blocks-to-Active-Lists conversion, the
 // overheads file of the scheduling-overhead micro-benchmark (what P threads cost beyond 1
-// thread, added above 1 thread only, and its stored form), and specs it refuses.
+// thread, added above 1 thread only, its stored form and the wait policy it was measured
+// under), loop times taken from a coarser trace of the same run, and specs it refuses.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -109,6 +110,34 @@ TEST(Predict, DispatchCostIsPaidOncePerChunk) {
   EXPECT_NEAR(two.parallel_overhead, 3 * 10e-6 + 3e-6, 1e-12);
   // dynamic:3 takes its dispatch figure from dynamic:1 (same kind): 1 chunk per thread at 2.
   EXPECT_NEAR(row(w, "dynamic:3", 2, overheads).time, 3 * kMs + 1 * 10e-6 + 3e-6, 1e-12);
+}
+
+TEST(Predict, LateThreadsDelayStaticButSelfSchedulingAbsorbsIt) {
+  // 8 blocks of 1 ms at 2 threads, the second thread starting 1.5 ms late. static: it ends its
+  // 4 ms share at 5.5 ms. dynamic:1: the first thread takes blocks at 0 and 1 ms, then the
+  // two alternate (the second at 1.5, 2.5, 3.5 ms, the first at 2, 3, 4 ms): 5 blocks and 3,
+  // ending at 5 and 4.5 ms.
+  const auto w =
+      harness::build_workload(synthetic_trace({std::vector<double>(8, 1.0)}, 0.0), "synthetic");
+  const auto s = harness::simulate_loop(ScheduleModel::parse("static", OmpRuntimeModel::libgomp),
+                                        w.loops[0].costs, 2, 0.0, false, 1.5 * kMs);
+  EXPECT_NEAR(s.makespan, 5.5 * kMs, 1e-12);
+  const auto d = harness::simulate_loop(ScheduleModel::parse("dynamic:1", OmpRuntimeModel::libgomp),
+                                        w.loops[0].costs, 2, 0.0, true, 1.5 * kMs);
+  EXPECT_NEAR(d.thread_work[0], 5 * kMs, 1e-12);
+  EXPECT_NEAR(d.thread_work[1], 3 * kMs, 1e-12);
+  EXPECT_NEAR(d.makespan, 5 * kMs, 1e-12);
+  ASSERT_EQ(d.assignment.size(), 8u);
+  EXPECT_EQ(d.assignment[1].thread, 0);  // the second block: the first thread, at 1 ms
+  EXPECT_EQ(d.assignment[2].thread, 1);
+  // A delay shorter than a block is not absorbed (4 blocks each, ending at 4 and 4.1 ms); the
+  // model's loop_seconds is that delay, added only above 1 thread.
+  OverheadModel late;
+  late.measured = true;
+  late.loop_seconds = 0.1 * kMs;
+  EXPECT_NEAR(row(w, "dynamic:1", 2, late).time, 4.1 * kMs, 1e-12);
+  EXPECT_NEAR(row(w, "static", 2, late).time, 4.1 * kMs, 1e-12);
+  EXPECT_NEAR(row(w, "static", 1, late).time, 8 * kMs, 1e-12);  // nothing at 1 thread
 }
 
 TEST(Predict, ChunksOverSeveralIterationsSpreadEvenly) {
@@ -222,9 +251,93 @@ TEST(Predict, OverheadsAreWhatPThreadsCostBeyondOneThread) {
   } catch (const std::invalid_argument& error) {
     EXPECT_THAT(error.what(), ::testing::HasSubstr("at 2 threads only"));
   }
+  // The wait policy the micro-benchmark ran under: recorded, kept in the stored form, and a
+  // prediction from a trace that ran under the other one says so.
+  std::ofstream(dir / "passive.json") << R"({"context": {"omp_wait_policy": "passive"},
+    "benchmarks": [
+    {"name": "scheduling_overhead/static@blocks/threads:1/iterations:30/real_time", "threads": 1,
+     "overhead_loop_us_median": 1.5, "chunks_per_loop": 1},
+    {"name": "scheduling_overhead/static@blocks/threads:2/iterations:30/real_time", "threads": 2,
+     "overhead_loop_us_median": 31.5, "chunks_per_loop": 2}]})";
+  const OverheadModel passive = harness::read_overhead_model(dir / "passive.json");
+  EXPECT_EQ(passive.wait_policy, "passive");
+  EXPECT_EQ(m.wait_policy, "not recorded");
+  EXPECT_THAT(passive.source, ::testing::HasSubstr("OMP_WAIT_POLICY passive"));
+  EXPECT_EQ(
+      harness::overhead_model_from_json(harness::overhead_model_json(passive), "T").wait_policy,
+      "passive");
+  EXPECT_THAT(harness::wait_policy_mismatch(passive, "active"),
+              ::testing::HasSubstr("measured with OMP_WAIT_POLICY passive but the traced run had "
+                                   "active"));
+  EXPECT_EQ(harness::wait_policy_mismatch(passive, "passive"), "");
+  EXPECT_EQ(harness::wait_policy_mismatch(passive, "not recorded"), "");
+  EXPECT_EQ(harness::wait_policy_mismatch(m, "active"), "");  // the model's is not recorded
+  auto traced_active = w;
+  traced_active.wait_policy = "active";
+  EXPECT_THAT(harness::choose_overheads(passive, traced_active).source,
+              ::testing::HasSubstr("WARNING: the overheads were measured with"));
+  EXPECT_THAT(harness::choose_overheads(passive, w).source,
+              ::testing::Not(::testing::HasSubstr("WARNING")));
+
   std::ofstream(dir / "empty.json") << R"({"benchmarks": []})";
   EXPECT_THROW(harness::read_overhead_model(dir / "empty.json"), std::invalid_argument);
   EXPECT_THROW(harness::read_overhead_model(dir / "missing.json"), std::invalid_argument);
+}
+
+// The same run traced twice (a fine trace of one chunk per block and a coarse one of one
+// chunk per loop): the fine trace keeps its split of each loop and takes the coarse trace's
+// loop times and time outside loops.
+clothbench::harness::TraceDocument coarse_of(const clothbench::harness::TraceDocument& fine,
+                                             const std::vector<double>& loop_ms,
+                                             double sequential_ms) {
+  clothbench::harness::TraceDocument t = fine;
+  t.chunks.clear();
+  std::int64_t clock = 0;
+  double span_ms = 0.0;
+  for (std::size_t i = 0; i < t.loops.size(); ++i) {
+    const auto ns = static_cast<std::int64_t>(loop_ms[i] * 1e6);
+    t.chunks.push_back({static_cast<std::uint32_t>(i), 0, 0,
+                        static_cast<std::int32_t>(t.loops[i].n), 1, 0, clock, clock + ns});
+    t.loops[i].entry_ns = clock;
+    t.loops[i].exit_ns = clock + ns;
+    clock += ns;
+    span_ms += loop_ms[i];
+  }
+  t.header["cost"]["run_seconds"] = (span_ms + sequential_ms) * 1e-3;
+  return t;
+}
+
+TEST(Predict, LoopTimesFromACoarserTraceOfTheSameRun) {
+  // Fine: loop 0 splits 3 : 1 ms, loop 1 three blocks of 2 ms, 4 ms outside loops (tracing
+  // cost included). Coarse: the loops took 2 and 3 ms, 1 ms outside them.
+  const auto fine_doc = synthetic_trace({{3, 1}, {2, 2, 2}}, 4.0);
+  auto w = harness::build_workload(fine_doc, "fine");
+  const auto totals = harness::build_workload(coarse_of(fine_doc, {2, 3}, 1.0), "coarse");
+  harness::take_loop_times(w, totals, "fine", "coarse");
+  EXPECT_EQ(w.loop_times_from, "coarse");
+  EXPECT_NEAR(w.loops[0].costs.total(), 2 * kMs, 1e-12);
+  EXPECT_NEAR(w.loops[0].costs.range(0, 1), 1.5 * kMs, 1e-12);  // the fine split, 3 : 1
+  EXPECT_NEAR(w.loops[1].costs.range(2, 3), 1 * kMs, 1e-12);
+  EXPECT_NEAR(w.loops[0].active.total(), 2 * kMs, 1e-12);
+  EXPECT_NEAR(w.busy_seconds, 5 * kMs, 1e-12);
+  EXPECT_NEAR(w.sequential_seconds, 1 * kMs, 1e-12);
+  EXPECT_NEAR(row(w, "static", 1).time, 6 * kMs, 1e-12);
+  // dynamic:1 at 2 threads: loop 0 takes its 1.5 ms block, loop 1 two of its 1 ms blocks.
+  EXPECT_NEAR(row(w, "dynamic:1", 2).time, 1 * kMs + 1.5 * kMs + 2 * kMs, 1e-12);
+
+  // Not the same run: another loop count, or another loop at the same instance.
+  auto other = harness::build_workload(fine_doc, "fine");
+  const auto shorter = harness::build_workload(synthetic_trace({{3, 1}}, 4.0), "short");
+  try {
+    harness::take_loop_times(other, shorter, "fine", "short");
+    ADD_FAILURE() << "traces of different runs were combined";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(),
+                ::testing::HasSubstr("fine and short are not traces of the same run"));
+    EXPECT_THAT(error.what(), ::testing::HasSubstr("2 and 1 loop instances"));
+  }
+  const auto wider = harness::build_workload(synthetic_trace({{3, 1, 1}, {2, 2, 2}}, 4.0), "wide");
+  EXPECT_THROW(harness::take_loop_times(other, wider, "fine", "wide"), std::invalid_argument);
 }
 
 }  // namespace
