@@ -22,6 +22,7 @@ struct Source {
   std::filesystem::path file;
   TraceWorkload workload;
   std::size_t chunks = 0;
+  double busy_seconds = 0.0;  ///< as recorded (before take_loop_times)
 };
 
 Source load_source(const std::filesystem::path& file) {
@@ -30,6 +31,7 @@ Source load_source(const std::filesystem::path& file) {
   const TraceDocument document = read_trace(file);
   s.chunks = document.chunks.size();
   s.workload = build_workload(document, file.string());
+  s.busy_seconds = s.workload.busy_seconds;
   return s;
 }
 
@@ -131,6 +133,29 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
       out.predicted_time = p.time;
       out.predicted_imbalance_percent = p.imbalance_percent;
       out.error_percent = 100.0 * (p.time - out.measured_time) / out.measured_time;
+      if (out.threads > 1 && !trace_dir.empty()) {
+        std::string name = out.scheduler;
+        for (char& c : name) {
+          if (c == ':' || c == '@') c = '_';
+        }
+        // Against the same scheduler's 1-thread trace: the same chunks, so the same cost of
+        // recording them.
+        const std::string one = fmt::format("{}-1t.cbtrace", name);
+        const Source* base = nullptr;
+        for (const auto& s : sources) {
+          if (s->file.filename() == one) base = s.get();
+        }
+        const std::filesystem::path own =
+            trace_dir / fmt::format("{}-{}t.cbtrace", name, out.threads);
+        if (base != nullptr && base->busy_seconds > 0.0 && std::filesystem::exists(own)) {
+          try {
+            const TraceWorkload w = build_workload(read_trace(own), own.string());
+            out.work_ratio = w.busy_seconds / base->busy_seconds;
+          } catch (const std::exception& error) {
+            v.notes.push_back(fmt::format("{}: not read: {}", own.string(), error.what()));
+          }
+        }
+      }
       out.bandwidth_bound_loops = p.bandwidth_bound_loops;
       out.bandwidth_added_seconds = p.bandwidth_added_seconds;
       v.rows.push_back(out);
@@ -150,23 +175,39 @@ std::string format_validation_markdown(const Validation& v) {
       v.bandwidth.source);
   out << "| Scheduler | Threads | Predicted from | Predicted time [s] | Measured time [s] | "
          "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing | "
-         "Bandwidth-bound loops | Bandwidth added [s] |\n";
-  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|--:|--:|\n";
+         "Work at P / 1 thread | Bandwidth-bound loops | Bandwidth added [s] |\n";
+  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|--:|--:|--:|\n";
   double sum = 0.0, worst = 0.0;
   for (const ValidationRow& r : v.rows) {
     out << fmt::format(
-        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} | {} | {:.4f} |\n",
+        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} | {} | {} | {:.4f} |\n",
         r.scheduler, r.threads, r.source, r.predicted_time, r.measured_time, r.error_percent,
         r.predicted_imbalance_percent,
         r.measured_imbalance_percent ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
                                      : std::string("-"),
-        r.disturbed ? "DISTURBED" : "clean", r.bandwidth_bound_loops, r.bandwidth_added_seconds);
+        r.disturbed ? "DISTURBED" : "clean",
+        r.work_ratio ? fmt::format("{:.2f}", *r.work_ratio) : std::string("-"),
+        r.bandwidth_bound_loops, r.bandwidth_added_seconds);
     sum += std::abs(r.error_percent);
     worst = std::max(worst, std::abs(r.error_percent));
   }
   if (!v.rows.empty()) {
     out << fmt::format("\n{} rows: mean |error| {:.1f} %, largest {:.1f} %.\n", v.rows.size(),
                        sum / static_cast<double>(v.rows.size()), worst);
+  }
+  std::vector<std::string> inflated;
+  for (const ValidationRow& r : v.rows) {
+    if (r.work_ratio && *r.work_ratio > 1.1) {
+      inflated.push_back(fmt::format("{} x {} ({:.2f})", r.scheduler, r.threads, *r.work_ratio));
+    }
+  }
+  if (!inflated.empty()) {
+    out << "Work at P / 1 thread: the busy time of the row's own P-thread trace (all threads' "
+           "chunks) over its 1-thread trace's. Above 1.1 the loops themselves ran slower split "
+           "over the threads (shared caches or core, cache lines moving between threads), which "
+           "a replay of 1-thread costs does not model: ";
+    for (std::size_t i = 0; i < inflated.size(); ++i) out << (i > 0 ? ", " : "") << inflated[i];
+    out << ".\n";
   }
   for (const std::string& s : v.skipped) out << "Not predicted: " << s << "\n";
   for (const std::string& s : v.notes) out << "Note: " << s << "\n";
@@ -185,13 +226,14 @@ nlohmann::json validation_json(const Validation& v) {
                     {"predicted_imbalance_percent", r.predicted_imbalance_percent},
                     {"measured_disturbed", r.disturbed},
                     {"bandwidth_bound_loops", r.bandwidth_bound_loops},
+                    {"work_ratio", r.work_ratio ? nlohmann::json(*r.work_ratio) : nlohmann::json()},
                     {"bandwidth_added_seconds", r.bandwidth_added_seconds},
                     {"measured_imbalance_percent",
                      r.measured_imbalance_percent ? nlohmann::json(*r.measured_imbalance_percent)
                                                   : nlohmann::json()}});
   }
   return {{"schema", "clothbench-prediction-validation"},
-          {"schema_version", 2},
+          {"schema_version", 3},
           {"sweep", v.sweep_file},
           {"machine_load", v.machine_load},
           {"overheads", v.overheads.source},

@@ -25,6 +25,11 @@ struct ValidationRow {
   double predicted_imbalance_percent = 0.0;
   std::optional<double> measured_imbalance_percent;  ///< none when the sweep was not instrumented
   bool disturbed = false;  ///< the sweep labelled the row DISTURBED (other work took the cores)
+  /// Busy time of the row's own P-thread trace (every thread's chunks) over that of the same
+  /// scheduler's 1-thread trace, when trace_dir holds both: above 1 the loops themselves ran slower
+  /// split over P threads (shared caches or core, lines bouncing between threads), which a
+  /// replay of 1-thread costs cannot know.
+  std::optional<double> work_ratio;
   std::int64_t bandwidth_bound_loops = 0;  ///< loop instances the bandwidth ceiling lengthened
   double bandwidth_added_seconds = 0.0;    ///< what it added to the predicted time
 };

@@ -213,8 +213,21 @@ TEST(PredictCommand, ValidatesASweepFromItsTraces) {
   ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
   const auto out = clothbench_test::run(
       "predict --validate " + clothbench_test::quote((dir / "out" / "sweep.json").string()) +
-      " --trace-dir " + clothbench_test::quote((dir / "traces").string()));
+      " --trace-dir " + clothbench_test::quote((dir / "traces").string()) + " --json " +
+      clothbench_test::quote((dir / "validation.json").string()));
   ASSERT_EQ(out.exit_code, 0) << out.output;
+  // Each 2-thread row's own trace gives the work it did against the 1-thread trace's.
+  EXPECT_THAT(out.output, HasSubstr("| Work at P / 1 thread |"));
+  const auto validation = clothbench_test::read_json(dir / "validation.json");
+  ASSERT_EQ(validation["rows"].size(), 6u);
+  for (const auto& r : validation["rows"]) {
+    if (r["threads"] == 1) {
+      EXPECT_TRUE(r["work_ratio"].is_null()) << r.dump();
+    } else {
+      ASSERT_TRUE(r["work_ratio"].is_number()) << r.dump();
+      EXPECT_GT(r["work_ratio"].get<double>(), 0.0) << r.dump();
+    }
+  }
   // The finest trace over blocks (one chunk per block) takes its loop times from the static
   // one (one chunk per loop), which recording slowed less.
   EXPECT_THAT(out.output, HasSubstr("| static@blocks | 2 | dynamic_1_blocks-1t.cbtrace (loop "
