@@ -39,6 +39,7 @@
 #include "harness/machine/machine_context.hpp"
 #include "harness/micro/overhead_statistics.hpp"
 #include "harness/micro/smoke.hpp"
+#include "harness/run/core_round_trip.hpp"
 #include "harness/run/disturbance.hpp"
 #include "schedulers/loop_driver.hpp"
 #include "schedulers/registry.hpp"
@@ -188,42 +189,14 @@ std::string disturbance_label(benchmark::State& state,
 }
 
 // The median round trip (ns) of a cache line bounced between threads 0 and 1 of a 2-thread
-// team, over 11 samples of 1000 round trips each (3 of 50 in a smoke run): machine context
-// for the dispatch costs, which on this VM change from run to run (README, "Scheduling
-// overhead"). 0 with fewer than 2 threads, and on a single hardware thread, where the two
-// spinning threads would take turns on one core.
+// team (harness/run/core_round_trip.hpp), over 11 samples of 1000 round trips each (3 of 50 in
+// a smoke run): machine context for the dispatch costs, which on this VM change from run to
+// run (README, "Scheduling overhead"). 0 with fewer than 2 threads.
 double core_round_trip_ns(int threads) {
-  if (threads < 2 || clothbench::harness::hardware_threads() < 2) return 0.0;
+  if (threads < 2) return 0.0;
   // A smoke run (tests, beside other tests on the same cores) bounces far less.
-  const int trips = clothbench::micro::smoke() ? 50 : 1000;
-  const int sample_count = clothbench::micro::smoke() ? 3 : 11;
-  std::vector<double> samples;
-  alignas(64) std::atomic<int> ball{0};
-#pragma omp parallel num_threads(2)
-  {
-    const int me = omp_get_thread_num();
-    const bool pair = omp_get_num_threads() == 2;  // the same on both threads
-    for (int sample = 0; pair && sample < sample_count; ++sample) {
-#pragma omp barrier
-      const Clock::time_point start = Clock::now();
-      for (int trip = 0; trip < trips; ++trip) {
-        const int mine = 2 * trip + me;  // thread 0 serves the even values, 1 the odd ones
-        while (ball.load(std::memory_order_acquire) != mine) {
-        }
-        ball.store(mine + 1, std::memory_order_release);
-      }
-      const double seconds = seconds_since(start);
-#pragma omp barrier
-      if (me == 0) {
-        samples.push_back(seconds / trips * 1e9);
-        ball.store(0, std::memory_order_relaxed);
-      }
-    }
-  }
-  if (samples.empty()) return 0.0;
-  const auto middle = samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2);
-  std::nth_element(samples.begin(), middle, samples.end());
-  return *middle;
+  return clothbench::harness::core_round_trip_ns(clothbench::micro::smoke() ? 50 : 1000,
+                                                 clothbench::micro::smoke() ? 3 : 11);
 }
 
 // Samples of one driver: per-loop overhead (us) of every repetition, and its ranges per loop.

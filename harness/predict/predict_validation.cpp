@@ -12,6 +12,7 @@
 #include "harness/predict/prediction.hpp"
 #include "harness/predict/trace_workload.hpp"
 #include "harness/report/sweep_table.hpp"
+#include "harness/run/core_round_trip.hpp"
 #include "harness/trace/trace_file.hpp"
 
 namespace clothbench::harness {
@@ -111,6 +112,10 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
     out.threads = row.value("threads", 1);
     out.measured_time = t["median"].get<double>();
     out.disturbed = row_disturbed(row);
+    if (row.contains("core_round_trip_ns") && row["core_round_trip_ns"].is_object()) {
+      out.round_trip_before_ns = row["core_round_trip_ns"].value("before", 0.0);
+      out.round_trip_after_ns = row["core_round_trip_ns"].value("after", 0.0);
+    }
     if (row.contains("accounting") && row["accounting"].is_object() &&
         row["accounting"]["imbalance_percent"].is_number()) {
       out.measured_imbalance_percent = row["accounting"]["imbalance_percent"].get<double>();
@@ -175,18 +180,23 @@ std::string format_validation_markdown(const Validation& v) {
       v.bandwidth.source);
   out << "| Scheduler | Threads | Predicted from | Predicted time [s] | Measured time [s] | "
          "Error [%] | Predicted imbalance [%] | Measured imbalance [%] | Measured timing | "
-         "Work at P / 1 thread | Bandwidth-bound loops | Bandwidth added [s] |\n";
-  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|--:|--:|--:|\n";
+         "Work at P / 1 thread | Core round trip [ns] | Bandwidth-bound loops | Bandwidth added "
+         "[s] |\n";
+  out << "|:--|--:|:--|--:|--:|--:|--:|--:|:--|--:|--:|--:|--:|\n";
   double sum = 0.0, worst = 0.0;
   for (const ValidationRow& r : v.rows) {
     out << fmt::format(
-        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} | {} | {} | {:.4f} |\n",
+        "| {} | {} | {} | {:.3f} | {:.3f} | {:+.1f} | {:.1f} | {} | {} | {} | {} | {} | {:.4f} "
+        "|\n",
         r.scheduler, r.threads, r.source, r.predicted_time, r.measured_time, r.error_percent,
         r.predicted_imbalance_percent,
         r.measured_imbalance_percent ? fmt::format("{:.1f}", *r.measured_imbalance_percent)
                                      : std::string("-"),
         r.disturbed ? "DISTURBED" : "clean",
         r.work_ratio ? fmt::format("{:.2f}", *r.work_ratio) : std::string("-"),
+        r.round_trip_before_ns > 0.0
+            ? fmt::format("{:.0f} / {:.0f}", r.round_trip_before_ns, r.round_trip_after_ns)
+            : std::string("-"),
         r.bandwidth_bound_loops, r.bandwidth_added_seconds);
     sum += std::abs(r.error_percent);
     worst = std::max(worst, std::abs(r.error_percent));
@@ -209,6 +219,22 @@ std::string format_validation_markdown(const Validation& v) {
     for (std::size_t i = 0; i < inflated.size(); ++i) out << (i > 0 ? ", " : "") << inflated[i];
     out << ".\n";
   }
+  double nearest = 0.0, farthest = 0.0;
+  for (const ValidationRow& r : v.rows) {
+    for (const double t : {r.round_trip_before_ns, r.round_trip_after_ns}) {
+      if (t <= 0.0) continue;
+      nearest = nearest > 0.0 ? std::min(nearest, t) : t;
+      farthest = std::max(farthest, t);
+    }
+  }
+  if (round_trip_changed(nearest, farthest)) {
+    out << fmt::format(
+        "Core round trip: the cache-line round trip between the cores went from {:.0f} to {:.0f} "
+        "ns within this sweep: the host moved the threads' cores nearer or farther apart, which "
+        "changes what sharing a loop costs; rows measured at different round trips are not "
+        "comparable, and neither is a row with one of a model measured at the other.\n",
+        nearest, farthest);
+  }
   for (const std::string& s : v.skipped) out << "Not predicted: " << s << "\n";
   for (const std::string& s : v.notes) out << "Note: " << s << "\n";
   return out.str();
@@ -227,6 +253,8 @@ nlohmann::json validation_json(const Validation& v) {
                     {"measured_disturbed", r.disturbed},
                     {"bandwidth_bound_loops", r.bandwidth_bound_loops},
                     {"work_ratio", r.work_ratio ? nlohmann::json(*r.work_ratio) : nlohmann::json()},
+                    {"core_round_trip_ns",
+                     {{"before", r.round_trip_before_ns}, {"after", r.round_trip_after_ns}}},
                     {"bandwidth_added_seconds", r.bandwidth_added_seconds},
                     {"measured_imbalance_percent",
                      r.measured_imbalance_percent ? nlohmann::json(*r.measured_imbalance_percent)

@@ -30,6 +30,10 @@ struct ValidationRow {
   /// split over P threads (shared caches or core, lines bouncing between threads), which a
   /// replay of 1-thread costs cannot know.
   std::optional<double> work_ratio;
+  /// The sweep's core-to-core round trip before and after the row (ns; 0: not measured, e.g.
+  /// at 1 thread or in an older sweep): where the host had put the cores (core_round_trip.hpp).
+  double round_trip_before_ns = 0.0;
+  double round_trip_after_ns = 0.0;
   std::int64_t bandwidth_bound_loops = 0;  ///< loop instances the bandwidth ceiling lengthened
   double bandwidth_added_seconds = 0.0;    ///< what it added to the predicted time
 };

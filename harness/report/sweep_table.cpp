@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "harness/run/core_round_trip.hpp"
 #include "harness/sweep/sweep_document.hpp"
 
 namespace clothbench::harness {
@@ -167,6 +168,12 @@ std::string format_row_line(const json& row) {
   }
   const bool disturbed = row_disturbed(row);
   const json& disturbance = row.contains("disturbance") ? row["disturbance"] : json();
+  if (row.contains("core_round_trip_ns") && row["core_round_trip_ns"].is_object()) {
+    const double before = row["core_round_trip_ns"].value("before", 0.0);
+    const double after = row["core_round_trip_ns"].value("after", 0.0);
+    parts += fmt::format("  core round trip {:.0f}/{:.0f} ns{}", before, after,
+                         round_trip_changed(before, after) ? " (CORE PLACEMENT CHANGED)" : "");
+  }
   return fmt::format(
       "  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
       row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),

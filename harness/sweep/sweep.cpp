@@ -16,6 +16,7 @@
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
 #include "harness/report/sweep_table.hpp"
+#include "harness/run/core_round_trip.hpp"
 #include "harness/run/disturbance.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
@@ -282,6 +283,8 @@ int run_sweep(const SweepOptions& options) {
     const auto driver = schedulers::make_driver(s.given);
     omp_set_num_threads(n);
     const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
+    // Where the host put the cores the team runs on (core_round_trip.hpp): before and after.
+    const double round_trip_before = n >= 2 ? core_round_trip_ns() : 0.0;
     if (options.warmup_steps > 0) {
       fresh_run(scene, *driver, n, std::min(options.warmup_steps, scene.steps),
                 kernels::Instrumentation::off, nullptr);
@@ -313,6 +316,7 @@ int run_sweep(const SweepOptions& options) {
         timed.push_back(std::move(*run));
       }
     }
+    const double round_trip_after = n >= 2 ? core_round_trip_ns() : 0.0;
     if (options.trace_dir) {
       traced_row_run(scene, *driver, n, std::min(3, options.repeat), reference_bytes,
                      *options.trace_dir, trace_models, options.quiet);
@@ -321,8 +325,12 @@ int run_sweep(const SweepOptions& options) {
     json binding = {{"mode", to_string(options.bind)},
                     {"bound", bound},
                     {"threads", binder.record_team()}};
-    return make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
-                    options.instrument, scene.steps, std::move(binding));
+    json row = make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
+                        options.instrument, scene.steps, std::move(binding));
+    if (n >= 2) {
+      row["core_round_trip_ns"] = {{"before", round_trip_before}, {"after", round_trip_after}};
+    }
+    return row;
   };
 
   for (const GridScheduler& s : grid) {

@@ -88,6 +88,20 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
     EXPECT_TRUE(row["verification"]["bit_identical"].get<bool>()) << where;
     EXPECT_EQ(row["verification"]["state_digest"], d["reference"]["state_digest"]) << where;
     EXPECT_EQ(row["binding"]["threads"].size(), row["threads"].get<std::size_t>()) << where;
+    // Rows of 2 threads record where the host had put the cores, before and after the row
+    // (harness/run/core_round_trip.hpp: 0 only on a machine of 1 hardware thread).
+    if (row["threads"] == 1) {
+      EXPECT_FALSE(row.contains("core_round_trip_ns")) << where;
+    } else {
+      ASSERT_TRUE(row["core_round_trip_ns"].is_object()) << where;
+      for (const char* when : {"before", "after"}) {
+        const double ns = row["core_round_trip_ns"][when].get<double>();
+        EXPECT_TRUE(std::isfinite(ns) && ns >= 0.0 && ns < 1e6) << where << " " << when;
+        if (clothbench_test::hardware_threads() >= 2) {
+          EXPECT_GT(ns, 0.0) << where << " " << when;
+        }
+      }
+    }
     // Accounting identity: the four components add up to the steps' time (an identity of the
     // recorded clocks, to rounding), and the steps' time plus what lies outside the steps is
     // the wall time. No speed is asserted.

@@ -2,10 +2,14 @@
 // each criterion marks a run on its own, the thresholds scale with the threads (1 to 128
 // alike), an oversubscribed run's own preemptions are not held against it, and a row with a
 // disturbed run is DISTURBED in the table and gets no speed-up.
+// The core-to-core round trip (harness/run/core_round_trip.hpp): measured, and what counts as
+// a change of the cores' placement.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "harness/machine/machine_context.hpp"
 #include "harness/report/sweep_table.hpp"
+#include "harness/run/core_round_trip.hpp"
 #include "harness/run/disturbance.hpp"
 
 namespace clothbench {
@@ -115,6 +119,20 @@ TEST(Disturbance, ADisturbedRowGetsNoSpeedupAndIsLabelled) {
   document["rows"][0]["disturbance"]["disturbed"] = true;
   harness::add_derived(document);
   EXPECT_TRUE(document["rows"][2]["derived"]["speedup"].is_null());
+}
+
+TEST(CoreRoundTrip, MeasuredOnTwoHardwareThreadsAndAChangeIsMoreThanTwofold) {
+  const double ns = harness::core_round_trip_ns(50, 3);
+  if (harness::hardware_threads() >= 2) {
+    EXPECT_GT(ns, 0.0);
+    EXPECT_LT(ns, 1e6);  // a round trip, not a time slice
+  } else {
+    EXPECT_EQ(ns, 0.0);
+  }
+  EXPECT_TRUE(harness::round_trip_changed(80.0, 380.0));
+  EXPECT_TRUE(harness::round_trip_changed(380.0, 80.0));
+  EXPECT_FALSE(harness::round_trip_changed(80.0, 150.0));
+  EXPECT_FALSE(harness::round_trip_changed(0.0, 380.0));  // one not measured
 }
 
 }  // namespace
