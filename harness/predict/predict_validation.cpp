@@ -227,6 +227,24 @@ std::string format_validation_markdown(const Validation& v) {
       farthest = std::max(farthest, t);
     }
   }
+  // Rows whose cores sat elsewhere than while the overheads were measured.
+  std::vector<std::string> elsewhere;
+  for (const ValidationRow& r : v.rows) {
+    const double row_ns = 0.5 * (r.round_trip_before_ns + r.round_trip_after_ns);
+    if (r.round_trip_before_ns > 0.0 && r.round_trip_after_ns > 0.0 &&
+        round_trip_changed(v.overheads.round_trip_ns, row_ns)) {
+      elsewhere.push_back(fmt::format("{} x {} ({:.0f} ns)", r.scheduler, r.threads, row_ns));
+    }
+  }
+  if (!elsewhere.empty()) {
+    out << fmt::format(
+        "Overheads measured at a core round trip of {:.0f} ns; these rows ran at more than twice "
+        "or less than half of it, so their per-loop and per-chunk costs come from another "
+        "placement of the cores: ",
+        v.overheads.round_trip_ns);
+    for (std::size_t i = 0; i < elsewhere.size(); ++i) out << (i > 0 ? ", " : "") << elsewhere[i];
+    out << ".\n";
+  }
   if (round_trip_changed(nearest, farthest)) {
     out << fmt::format(
         "Core round trip: the cache-line round trip between the cores went from {:.0f} to {:.0f} "

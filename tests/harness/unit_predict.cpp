@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "harness/predict/overhead_model.hpp"
+#include "harness/predict/predict_validation.hpp"
 #include "harness/predict/prediction.hpp"
 #include "harness/predict/schedule_simulation.hpp"
 #include "harness/predict/trace_workload.hpp"
@@ -140,6 +141,31 @@ TEST(Predict, LateThreadsDelayStaticButSelfSchedulingAbsorbsIt) {
   EXPECT_NEAR(row(w, "static", 1, late).time, 8 * kMs, 1e-12);  // nothing at 1 thread
 }
 
+TEST(Predict, ValidationNamesRowsRunWithTheCoresElsewhere) {
+  // Overheads measured with the cores 85 ns apart; one row ran at 90 ns, one at 380 ns.
+  harness::Validation v;
+  v.overheads.measured = true;
+  v.overheads.round_trip_ns = 85.0;
+  harness::ValidationRow near, far;
+  near.scheduler = "static@blocks";
+  far.scheduler = "dynamic:1@blocks";
+  near.threads = far.threads = 2;
+  near.measured_time = far.measured_time = 1.0;
+  near.round_trip_before_ns = near.round_trip_after_ns = 90.0;
+  far.round_trip_before_ns = 370.0;
+  far.round_trip_after_ns = 390.0;
+  v.rows = {near, far};
+  const std::string text = harness::format_validation_markdown(v);
+  EXPECT_THAT(text, ::testing::HasSubstr("| 90 / 90 |"));
+  EXPECT_THAT(text, ::testing::HasSubstr("Overheads measured at a core round trip of 85 ns"));
+  EXPECT_THAT(text, ::testing::HasSubstr(": dynamic:1@blocks x 2 (380 ns)."));
+  EXPECT_THAT(text, ::testing::HasSubstr("went from 90 to 390 ns within this sweep"));
+  v.rows = {near};
+  const std::string quiet = harness::format_validation_markdown(v);
+  EXPECT_THAT(quiet, ::testing::Not(::testing::HasSubstr("Overheads measured at a core")));
+  EXPECT_THAT(quiet, ::testing::Not(::testing::HasSubstr("within this sweep")));
+}
+
 TEST(Predict, ChunksOverSeveralIterationsSpreadEvenly) {
   harness::IterationCosts costs;
   costs.add(4, 8.0);  // 2 each
@@ -258,14 +284,22 @@ TEST(Predict, OverheadsAreWhatPThreadsCostBeyondOneThread) {
     {"name": "scheduling_overhead/static@blocks/threads:1/iterations:30/real_time", "threads": 1,
      "overhead_loop_us_median": 1.5, "chunks_per_loop": 1},
     {"name": "scheduling_overhead/static@blocks/threads:2/iterations:30/real_time", "threads": 2,
-     "overhead_loop_us_median": 31.5, "chunks_per_loop": 2}]})";
+     "overhead_loop_us_median": 31.5, "chunks_per_loop": 2, "core_round_trip_ns_before": 80,
+     "core_round_trip_ns_after": 90},
+    {"name": "scheduling_overhead/dynamic:1@blocks/threads:2/iterations:30/real_time",
+     "threads": 2, "overhead_loop_us_median": 40.0, "chunks_per_loop": 2048,
+     "core_round_trip_ns_before": 380, "core_round_trip_ns_after": 85}]})";
   const OverheadModel passive = harness::read_overhead_model(dir / "passive.json");
   EXPECT_EQ(passive.wait_policy, "passive");
+  EXPECT_DOUBLE_EQ(passive.round_trip_ns, 90.0);  // the upper median of 80, 90, 380, 85
+  EXPECT_THAT(passive.source, ::testing::HasSubstr("cores 90 ns apart"));
+  EXPECT_EQ(m.round_trip_ns, 0.0);  // not recorded
   EXPECT_EQ(m.wait_policy, "not recorded");
   EXPECT_THAT(passive.source, ::testing::HasSubstr("OMP_WAIT_POLICY passive"));
-  EXPECT_EQ(
-      harness::overhead_model_from_json(harness::overhead_model_json(passive), "T").wait_policy,
-      "passive");
+  const OverheadModel passive_back =
+      harness::overhead_model_from_json(harness::overhead_model_json(passive), "T");
+  EXPECT_EQ(passive_back.wait_policy, "passive");
+  EXPECT_DOUBLE_EQ(passive_back.round_trip_ns, 90.0);
   EXPECT_THAT(harness::wait_policy_mismatch(passive, "active"),
               ::testing::HasSubstr("measured with OMP_WAIT_POLICY passive but the traced run had "
                                    "active"));
