@@ -57,7 +57,7 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   };
   // By spec, then team size.
   std::map<std::string, std::map<int, Figures>> by_spec;
-  std::vector<std::pair<int, double>> round_trips;  // (team size, ns) of every result
+  std::map<std::string, std::map<int, double>> round_trips;  // by spec, team size: ns
   const std::string prefix = "scheduling_overhead/";
   for (const auto& b : document["benchmarks"]) {
     const std::string name = b.value("name", std::string());
@@ -66,11 +66,15 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
     spec = spec.substr(0, spec.find('/'));  // "/threads:T/iterations:30/real_time" follows
     const int threads = static_cast<int>(b.value("threads", 0.0));
     if (threads < 1) continue;
+    double sum = 0.0;
+    int count = 0;
     for (const char* key : {"core_round_trip_ns_before", "core_round_trip_ns_after"}) {
       if (b.contains(key) && b[key].is_number() && b[key].get<double>() > 0.0) {
-        round_trips.emplace_back(threads, b[key].get<double>());
+        sum += b[key].get<double>();
+        ++count;
       }
     }
+    if (count > 0) round_trips[spec][threads] = sum / count;
     by_spec[spec][threads] = {1e-6 * b["overhead_loop_us_median"].get<double>(),
                               b.value("chunks_per_loop", 0.0) / threads,
                               b.value("disturbed", 0.0) != 0.0};
@@ -96,15 +100,13 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
   OverheadModel model;
   model.measured = true;
   model.measured_threads = team;
-  std::vector<double> at_team;
-  for (const auto& [threads, ns] : round_trips) {
-    if (threads == team) at_team.push_back(ns);
-  }
-  if (!at_team.empty()) {
-    const auto middle = at_team.begin() + static_cast<std::ptrdiff_t>(at_team.size() / 2);
-    std::nth_element(at_team.begin(), middle, at_team.end());
-    model.round_trip_ns = *middle;
-  }
+  const auto round_trip = [&](const std::string& spec) {
+    const auto it = round_trips.find(spec);
+    if (it == round_trips.end()) return 0.0;
+    const auto at = it->second.find(team);
+    return at == it->second.end() ? 0.0 : at->second;
+  };
+  model.round_trip_ns = round_trip("static@blocks");
   if (document.contains("context") && document["context"].is_object() &&
       document["context"].contains("omp_wait_policy")) {
     model.wait_policy = document["context"]["omp_wait_policy"].get<std::string>();
@@ -119,8 +121,9 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
       file.string(), team, model.wait_policy, 1e6 * model.loop_seconds,
       1e6 * static_team.loop_seconds, 1e6 * static_one.loop_seconds);
   if (model.round_trip_ns > 0.0) {
-    model.source +=
-        fmt::format("; cores {:.0f} ns apart (cache-line round trip)", model.round_trip_ns);
+    model.source += fmt::format(
+        "; per-loop cost measured with the cores {:.0f} ns apart (cache-line round trip)",
+        model.round_trip_ns);
   }
   std::vector<std::string> one_size;
   for (const auto& [spec, at] : by_spec) {
@@ -138,6 +141,7 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
     const double at_one = (one.loop_seconds - static_one.loop_seconds) / one.chunks_per_thread;
     const double at_team = (many.loop_seconds - static_team.loop_seconds) / many.chunks_per_thread;
     model.dispatch_seconds[spec] = std::max(0.0, at_team - at_one);
+    if (round_trip(spec) > 0.0) model.dispatch_round_trip_ns[spec] = round_trip(spec);
   }
   model.dispatch_seconds["static@blocks"] = 0.0;
   const auto list = [](const std::vector<std::string>& specs) {
@@ -175,6 +179,7 @@ nlohmann::json overhead_model_json(const OverheadModel& model) {
           {"measured_threads", model.measured_threads},
           {"wait_policy", model.wait_policy},
           {"round_trip_ns", model.round_trip_ns},
+          {"dispatch_round_trip_ns", model.dispatch_round_trip_ns},
           {"loop_seconds", model.loop_seconds},
           {"loop_seconds_at_one_thread", model.loop_seconds_at_one},
           {"loop_seconds_at_measured_threads", model.loop_seconds_at_measured},
@@ -193,6 +198,8 @@ OverheadModel overhead_model_from_json(const nlohmann::json& stored, const std::
     model.disturbed = stored.at("disturbed").get<std::vector<std::string>>();
     model.wait_policy = stored.value("wait_policy", std::string("not recorded"));
     model.round_trip_ns = stored.value("round_trip_ns", 0.0);
+    model.dispatch_round_trip_ns =
+        stored.value("dispatch_round_trip_ns", std::map<std::string, double>{});
     model.source = origin + ", copied from " + stored.at("source").get<std::string>();
   } catch (const nlohmann::json::exception& error) {
     throw std::invalid_argument(origin + ": overheads: " + error.what());

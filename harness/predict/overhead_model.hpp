@@ -27,10 +27,12 @@ struct OverheadModel {
   /// OMP_WAIT_POLICY of the micro-benchmark run ("active", "passive", "unset"; "not recorded"
   /// for files and headers that predate it): sleeping waits cost far more per loop.
   std::string wait_policy = "not recorded";
-  /// The (upper) median cache-line round trip between two cores over the P-thread results (the
-  /// benchmark's core_round_trip_ns_before/_after, ns; 0: not recorded): where the host had
-  /// put the cores while the costs were measured (harness/run/core_round_trip.hpp).
+  /// The cache-line round trip between two cores (ns; 0: not recorded) while static@blocks ran
+  /// at P, i.e. where the host had put the cores when the per-loop cost was measured
+  /// (harness/run/core_round_trip.hpp): the mean of the benchmark's before and after values.
   double round_trip_ns = 0.0;
+  /// The same for each spec's P-thread result, which its dispatch cost comes from.
+  std::map<std::string, double> dispatch_round_trip_ns;
   /// Per loop, above 1 thread: static@blocks' overhead at P - at 1 thread, at least 0. The
   /// replay lets every thread but the first start each loop this much later (the fork's
   /// wake-up, which dominates when waiting threads sleep), so a self-scheduled clause absorbs

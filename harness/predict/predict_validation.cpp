@@ -231,17 +231,28 @@ std::string format_validation_markdown(const Validation& v) {
   std::vector<std::string> elsewhere;
   for (const ValidationRow& r : v.rows) {
     const double row_ns = 0.5 * (r.round_trip_before_ns + r.round_trip_after_ns);
-    if (r.round_trip_before_ns > 0.0 && r.round_trip_after_ns > 0.0 &&
-        round_trip_changed(v.overheads.round_trip_ns, row_ns)) {
-      elsewhere.push_back(fmt::format("{} x {} ({:.0f} ns)", r.scheduler, r.threads, row_ns));
+    if (r.round_trip_before_ns <= 0.0 || r.round_trip_after_ns <= 0.0) continue;
+    const auto dispatch = v.overheads.dispatch_round_trip_ns.find(r.scheduler);
+    const double dispatch_ns =
+        dispatch == v.overheads.dispatch_round_trip_ns.end() ? 0.0 : dispatch->second;
+    const bool loop_elsewhere = round_trip_changed(v.overheads.round_trip_ns, row_ns);
+    const bool chunk_elsewhere = round_trip_changed(dispatch_ns, row_ns);
+    if (loop_elsewhere || chunk_elsewhere) {
+      std::string costs;
+      if (loop_elsewhere)
+        costs = fmt::format("per-loop cost at {:.0f} ns", v.overheads.round_trip_ns);
+      if (chunk_elsewhere) {
+        costs +=
+            fmt::format("{}per-chunk cost at {:.0f} ns", costs.empty() ? "" : ", ", dispatch_ns);
+      }
+      elsewhere.push_back(
+          fmt::format("{} x {} at {:.0f} ns ({})", r.scheduler, r.threads, row_ns, costs));
     }
   }
   if (!elsewhere.empty()) {
-    out << fmt::format(
-        "Overheads measured at a core round trip of {:.0f} ns; these rows ran at more than twice "
-        "or less than half of it, so their per-loop and per-chunk costs come from another "
-        "placement of the cores: ",
-        v.overheads.round_trip_ns);
+    out << "Core placement: these rows ran with their cores more than twice as far apart, or "
+           "less than half as far, as when the overheads they are predicted with were measured "
+           "(the micro-benchmark's own round trip), so those costs come from another placement: ";
     for (std::size_t i = 0; i < elsewhere.size(); ++i) out << (i > 0 ? ", " : "") << elsewhere[i];
     out << ".\n";
   }

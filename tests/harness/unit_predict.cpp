@@ -146,6 +146,8 @@ TEST(Predict, ValidationNamesRowsRunWithTheCoresElsewhere) {
   harness::Validation v;
   v.overheads.measured = true;
   v.overheads.round_trip_ns = 85.0;
+  v.overheads.dispatch_round_trip_ns["static@blocks"] = 85.0;
+  v.overheads.dispatch_round_trip_ns["dynamic:1@blocks"] = 400.0;
   harness::ValidationRow near, far;
   near.scheduler = "static@blocks";
   far.scheduler = "dynamic:1@blocks";
@@ -157,12 +159,17 @@ TEST(Predict, ValidationNamesRowsRunWithTheCoresElsewhere) {
   v.rows = {near, far};
   const std::string text = harness::format_validation_markdown(v);
   EXPECT_THAT(text, ::testing::HasSubstr("| 90 / 90 |"));
-  EXPECT_THAT(text, ::testing::HasSubstr("Overheads measured at a core round trip of 85 ns"));
-  EXPECT_THAT(text, ::testing::HasSubstr(": dynamic:1@blocks x 2 (380 ns)."));
+  EXPECT_THAT(text,
+              ::testing::HasSubstr("dynamic:1@blocks x 2 at 380 ns (per-loop cost at 85 ns)."));
   EXPECT_THAT(text, ::testing::HasSubstr("went from 90 to 390 ns within this sweep"));
   v.rows = {near};
   const std::string quiet = harness::format_validation_markdown(v);
-  EXPECT_THAT(quiet, ::testing::Not(::testing::HasSubstr("Overheads measured at a core")));
+  EXPECT_THAT(quiet, ::testing::Not(::testing::HasSubstr("Core placement")));
+  // A near row predicted with a per-chunk cost measured far.
+  near.scheduler = "dynamic:1@blocks";
+  v.rows = {near};
+  EXPECT_THAT(harness::format_validation_markdown(v),
+              ::testing::HasSubstr("dynamic:1@blocks x 2 at 90 ns (per-chunk cost at 400 ns)."));
   EXPECT_THAT(quiet, ::testing::Not(::testing::HasSubstr("within this sweep")));
 }
 
@@ -291,15 +298,15 @@ TEST(Predict, OverheadsAreWhatPThreadsCostBeyondOneThread) {
      "core_round_trip_ns_before": 380, "core_round_trip_ns_after": 85}]})";
   const OverheadModel passive = harness::read_overhead_model(dir / "passive.json");
   EXPECT_EQ(passive.wait_policy, "passive");
-  EXPECT_DOUBLE_EQ(passive.round_trip_ns, 90.0);  // the upper median of 80, 90, 380, 85
-  EXPECT_THAT(passive.source, ::testing::HasSubstr("cores 90 ns apart"));
+  EXPECT_DOUBLE_EQ(passive.round_trip_ns, 85.0);  // static@blocks at 2 threads: (80 + 90) / 2
+  EXPECT_THAT(passive.source, ::testing::HasSubstr("with the cores 85 ns apart"));
   EXPECT_EQ(m.round_trip_ns, 0.0);  // not recorded
   EXPECT_EQ(m.wait_policy, "not recorded");
   EXPECT_THAT(passive.source, ::testing::HasSubstr("OMP_WAIT_POLICY passive"));
   const OverheadModel passive_back =
       harness::overhead_model_from_json(harness::overhead_model_json(passive), "T");
   EXPECT_EQ(passive_back.wait_policy, "passive");
-  EXPECT_DOUBLE_EQ(passive_back.round_trip_ns, 90.0);
+  EXPECT_DOUBLE_EQ(passive_back.round_trip_ns, 85.0);
   EXPECT_THAT(harness::wait_policy_mismatch(passive, "active"),
               ::testing::HasSubstr("measured with OMP_WAIT_POLICY passive but the traced run had "
                                    "active"));
