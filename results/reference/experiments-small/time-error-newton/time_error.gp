@@ -1,6 +1,6 @@
 set terminal pngcairo size 1100,750 enhanced font 'DejaVu Sans,11' noenhanced
 set output 'time_error.png'
-set title "Run time against error (small size, reference 8.68 s)"
+set title "Run time against error (small size, reference 3.43 s)"
 set logscale xy
 set format x '%g'
 set format y '%g'
