@@ -139,19 +139,15 @@ Validation validate_prediction(const nlohmann::json& sweep, const std::string& s
       out.predicted_imbalance_percent = p.imbalance_percent;
       out.error_percent = 100.0 * (p.time - out.measured_time) / out.measured_time;
       if (out.threads > 1 && !trace_dir.empty()) {
-        std::string name = out.scheduler;
-        for (char& c : name) {
-          if (c == ':' || c == '@') c = '_';
-        }
         // Against the same scheduler's 1-thread trace: the same chunks, so the same cost of
         // recording them.
-        const std::string one = fmt::format("{}-1t.cbtrace", name);
+        const std::string one = row_trace_file_name(out.scheduler, 1);
         const Source* base = nullptr;
         for (const auto& s : sources) {
           if (s->file.filename() == one) base = s.get();
         }
         const std::filesystem::path own =
-            trace_dir / fmt::format("{}-{}t.cbtrace", name, out.threads);
+            trace_dir / row_trace_file_name(out.scheduler, out.threads);
         if (base != nullptr && base->busy_seconds > 0.0 && std::filesystem::exists(own)) {
           try {
             const TraceWorkload w = build_workload(read_trace(own), own.string());

@@ -25,6 +25,7 @@
 #include "harness/sweep/stop_request.hpp"
 #include "harness/sweep/sweep_document.hpp"
 #include "harness/sweep/thread_binding.hpp"
+#include "harness/trace/trace_file.hpp"
 #include "harness/trace/trace_output.hpp"
 #include "schedulers/registry.hpp"
 
@@ -97,10 +98,6 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
   std::sort(order.begin(), order.end(),
             [&](std::size_t a, std::size_t b) { return traced[a].seconds < traced[b].seconds; });
   const Traced& kept = traced[order[(order.size() - 1) / 2]];
-  std::string name = driver.name();
-  for (char& c : name) {
-    if (c == ':' || c == '@') c = '_';
-  }
   const bool identical = std::all_of(traced.begin(), traced.end(),
                                      [&](const Traced& t) { return t.bytes == reference_bytes; });
   nlohmann::json context = {{"machine", machine_context()},
@@ -114,7 +111,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
                             {"state_digest", fnv1a64_hex(kept.bytes)},
                             {"bit_identical_to_reference", identical}};
   context.update(models);
-  write_trace_outputs(*kept.trace, dir / fmt::format("{}-{}t.cbtrace", name, threads), context,
+  write_trace_outputs(*kept.trace, dir / row_trace_file_name(driver.name(), threads), context,
                       kept.seconds, std::nullopt, quiet);
 }
 

@@ -63,6 +63,14 @@ std::string loop_site_name(const kernels::TraceSite& site) {
   return fmt::format("{}:{}/{}", site.function, site.line, kind_name(site.kind));
 }
 
+std::string row_trace_file_name(const std::string& scheduler, int threads) {
+  std::string name = scheduler;
+  for (char& c : name) {
+    if (c == ':' || c == '@') c = '_';
+  }
+  return fmt::format("{}-{}t.cbtrace", name, threads);
+}
+
 TraceDocument collect_trace(const kernels::ChunkTrace& trace, const json& context,
                             double record_seconds, double run_seconds) {
   TraceDocument document;

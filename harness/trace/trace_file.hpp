@@ -33,6 +33,10 @@ struct TraceDocument {
 /// for for_index loops).
 std::string loop_site_name(const kernels::TraceSite& site);
 
+/// The file name `sweep --trace DIR` gives the trace of a row, and `predict --validate` looks
+/// for: "<scheduler>-<threads>t.cbtrace" with ':' and '@' as '_' (e.g. "dynamic_1_blocks-2t").
+std::string row_trace_file_name(const std::string& scheduler, int threads);
+
 /// Collects a finished trace: its loops (spans over all threads), its chunks sorted, and the
 /// header (format, sites, counts, record layouts, cost) merged with `context` (machine,
 /// scene, scheduler, threads: what the caller knows). `record_seconds`: the measured cost of

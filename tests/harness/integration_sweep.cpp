@@ -96,7 +96,7 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
       ASSERT_TRUE(row["core_round_trip_ns"].is_object()) << where;
       for (const char* when : {"before", "after"}) {
         const double ns = row["core_round_trip_ns"][when].get<double>();
-        EXPECT_TRUE(std::isfinite(ns) && ns >= 0.0 && ns < 1e6) << where << " " << when;
+        EXPECT_TRUE(std::isfinite(ns) && ns >= 0.0) << where << " " << when;
         if (clothbench_test::hardware_threads() >= 2) {
           EXPECT_GT(ns, 0.0) << where << " " << when;
         }
