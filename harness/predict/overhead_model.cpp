@@ -1,7 +1,7 @@
 // Reading the scheduling-overhead micro-benchmark's results (see overhead_model.hpp).
 #include "harness/predict/overhead_model.hpp"
 
-#include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
@@ -144,19 +144,15 @@ OverheadModel read_overhead_model(const std::filesystem::path& file) {
     if (round_trip(spec) > 0.0) model.dispatch_round_trip_ns[spec] = round_trip(spec);
   }
   model.dispatch_seconds["static@blocks"] = 0.0;
-  const auto list = [](const std::vector<std::string>& specs) {
-    std::string names;
-    for (const std::string& spec : specs) names += (names.empty() ? "" : ", ") + spec;
-    return names;
-  };
   if (!model.disturbed.empty()) {
     model.source += fmt::format(
         "; {} of {} results disturbed by other work on the machine, not "
         "used for dispatch costs: {}",
-        model.disturbed.size(), by_spec.size(), list(model.disturbed));
+        model.disturbed.size(), by_spec.size(), fmt::join(model.disturbed, ", "));
   }
   if (!one_size.empty()) {
-    model.source += fmt::format("; measured at one team size only, not used: {}", list(one_size));
+    model.source +=
+        fmt::format("; measured at one team size only, not used: {}", fmt::join(one_size, ", "));
   }
   return model;
 }

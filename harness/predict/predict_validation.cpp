@@ -1,7 +1,7 @@
 // Predicted against measured sweep rows (see predict_validation.hpp).
 #include "harness/predict/predict_validation.hpp"
 
-#include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <cmath>
 #include <exception>
@@ -212,8 +212,7 @@ std::string format_validation_markdown(const Validation& v) {
            "chunks) over its 1-thread trace's. Above 1.1 the loops themselves ran slower split "
            "over the threads (shared caches or core, cache lines moving between threads), which "
            "a replay of 1-thread costs does not model: ";
-    for (std::size_t i = 0; i < inflated.size(); ++i) out << (i > 0 ? ", " : "") << inflated[i];
-    out << ".\n";
+    out << fmt::format("{}.\n", fmt::join(inflated, ", "));
   }
   double nearest = 0.0, farthest = 0.0;
   for (const ValidationRow& r : v.rows) {
@@ -249,8 +248,7 @@ std::string format_validation_markdown(const Validation& v) {
     out << "Core placement: these rows ran with their cores more than twice as far apart, or "
            "less than half as far, as when the overheads they are predicted with were measured "
            "(the micro-benchmark's own round trip), so those costs come from another placement: ";
-    for (std::size_t i = 0; i < elsewhere.size(); ++i) out << (i > 0 ? ", " : "") << elsewhere[i];
-    out << ".\n";
+    out << fmt::format("{}.\n", fmt::join(elsewhere, ", "));
   }
   if (round_trip_changed(nearest, farthest)) {
     out << fmt::format(
