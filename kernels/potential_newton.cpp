@@ -28,7 +28,9 @@ void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
         store_symmetric(st.preconditioner, s, inverse);
       },
       new_step, bytes::kBlockF + (lines != nullptr ? bytes::kBlockD : 0.0));
-  if (vcycle_ != nullptr) vcycle_->factor(run, ctx_, newton_->hessian);
+  if (vcycle_ != nullptr && vcycle_on_.load(std::memory_order_relaxed)) {
+    vcycle_->factor(run, ctx_, newton_->hessian);
+  }
   if (lines == nullptr) return;
   const ModelHessian& hessian = newton_->hessian;
   // x's share, next, alpha and beta read; the block written.
@@ -66,19 +68,26 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
   // z = M^-1 r (into `product`) with the sums r . z and |r|_W^2. Block Jacobi is computed in
   // the same loop as the sums; line solves first solve every line, the multigrids run a cycle.
   // Block Jacobi is applied inside the PCG's own loops; every other preconditioner has its own.
-  const bool own_loops = lines != nullptr || vcycle_ != nullptr;
+  // Under the V-cycle a step's solves run block Jacobi until one of them has taken
+  // `vcycle_after` iterations without meeting its forcing term; that one builds the V-cycle
+  // and restarts its search from the residual it has reached.
+  bool use_vcycle = vcycle_ != nullptr && vcycle_on_.load(std::memory_order_relaxed);
+  const int vcycle_after = ctx_.config.solver.vcycle_after;
+  bool own_loops = lines != nullptr || use_vcycle;
   // Flags, mass, r, and z (own loops) or P^-1 read; z written when computed here.
-  const LoopBytes sums_bytes{.read = bytes::kFlag + bytes::kDouble + 2 * bytes::kVector3,
-                             .written = own_loops ? 0.0 : bytes::kVector3};
+  const auto sums_bytes = [&] {
+    return LoopBytes{.read = bytes::kFlag + bytes::kDouble + 2 * bytes::kVector3,
+                     .written = own_loops ? 0.0 : bytes::kVector3};
+  };
   auto precondition_residual = [&]() {
-    if (vcycle_ != nullptr) {
+    if (use_vcycle) {
       vcycle_->apply(run, ctx_, ns.residual, ns.product);
     } else if (multigrid_ != nullptr) {
       multigrid_->apply(run, ctx_, *lines, ns.residual, ns.product);
     } else if (lines != nullptr) {
       lines->apply(run, ctx_, ns.residual, ns.product);
     }
-    run.for_each<PcgSums>(ElementKind::particles, &ns.partials, sums_bytes,
+    run.for_each<PcgSums>(ElementKind::particles, &ns.partials, sums_bytes(),
                           [&](std::int64_t s, PcgSums& acc) {
                             auto z = vec3(ns.product, s);
                             if (!ctx_.is_free(s)) {
@@ -102,8 +111,11 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
   const double target = forcing * norm0;
   double rz = sums.rz;
   const LoopBytes copy_bytes{.read = bytes::kVector3, .written = bytes::kVector3};
-  run.for_each(ElementKind::particles, copy_bytes,
-               [&](std::int64_t s) { vec3(ns.search, s) = vec3(ns.product, s); });
+  const auto search_along_z = [&] {
+    run.for_each(ElementKind::particles, copy_bytes,
+                 [&](std::int64_t s) { vec3(ns.search, s) = vec3(ns.product, s); });
+  };
+  search_along_z();
 
   while (report.iterations < max_iterations) {
     const double pq = ns.hessian.apply(run, ctx_, ns.search, ns.product);  // product = H p
@@ -138,6 +150,19 @@ LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, do
       break;
     }
     if (report.iterations >= max_iterations) break;
+    if (!use_vcycle && vcycle_ != nullptr && report.iterations >= vcycle_after) {
+      // Block Jacobi was not enough: the V-cycle for this model and the step's later solves,
+      // and a new search from the residual reached (the iterate p is kept).
+      use_vcycle = own_loops = true;
+      vcycle_on_.store(true, std::memory_order_relaxed);
+#pragma omp master
+      ++vcycle_steps_;
+      vcycle_->factor(run, ctx_, ns.hessian);
+      sums = precondition_residual();
+      rz = sums.rz;
+      search_along_z();
+      continue;
+    }
     if (!fused) sums = precondition_residual();
     const double beta = sums.rz / rz;
     rz = sums.rz;

@@ -56,6 +56,7 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
     }
     vcycle_ = std::make_unique<VcyclePreconditioner>();
     vcycle_->set_coarsest_nodes(ctx.config.solver.coarsest_nodes);
+    vcycle_on_.store(ctx.config.solver.vcycle_after == 0, std::memory_order_relaxed);
   }
 }
 
@@ -79,6 +80,12 @@ void PotentialObjective::begin_step(LoopRunner& run) {
     colour_for_smoothing(run);
   }
   if (newton_ != nullptr) {
+    const bool from_start = vcycle_ != nullptr && ctx_.config.solver.vcycle_after == 0;
+    vcycle_on_.store(from_start, std::memory_order_relaxed);
+    if (from_start) {
+#pragma omp master
+      ++vcycle_steps_;
+    }
     assemble_newton(run, /*new_step=*/true);
   } else {
     refresh_preconditioner(run);

@@ -5,6 +5,7 @@
 // changes resolvable).
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <vector>
 
@@ -59,6 +60,10 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] MultigridPreconditioner* multigrid() { return multigrid_.get(); }
   /// The V-cycle preconditioner, or null (tests).
   [[nodiscard]] VcyclePreconditioner* vcycle() { return vcycle_.get(); }
+  /// Whether the current step's solves use the V-cycle (block Jacobi until one needs it).
+  [[nodiscard]] bool vcycle_in_use() const { return vcycle_on_.load(std::memory_order_relaxed); }
+  /// Steps (sub-steps count) in which a solve needed the V-cycle.
+  [[nodiscard]] std::int64_t vcycle_steps() const { return vcycle_steps_; }
 
   /// Colours the free particles for `smooth` (every thread calls it; one colours, greedy in
   /// slot order, so that no element touches two particles of one colour); again only when
@@ -112,6 +117,11 @@ class PotentialObjective final : public StepObjective {
   std::unique_ptr<NewtonSystem> newton_;
   std::unique_ptr<MultigridPreconditioner> multigrid_;  ///< Newton with preconditioner = multigrid
   std::unique_ptr<VcyclePreconditioner> vcycle_;        ///< Newton with preconditioner = v-cycle
+  /// The V-cycle is in use for this step (SolverConfig::vcycle_after): cleared by begin_step,
+  /// set by the solve that first needs it. Every thread stores the same value at the same
+  /// point and reads it only after a barrier that follows every store.
+  std::atomic<bool> vcycle_on_{false};
+  std::int64_t vcycle_steps_ = 0;  ///< steps (and sub-steps) that built the V-cycle
   /// Nonlinear smoothing: each free slot's colour (-1 otherwise), the slots of each colour in
   /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call).
   std::vector<int> smoothing_colour_;

@@ -396,6 +396,7 @@ Simulation::VcycleWork Simulation::vcycle_work() const {
     work.factorisations = v->factorisations();
     work.structures = v->structures();
     work.sequential_seconds = v->sequential_seconds();
+    work.steps = newton_objective_->vcycle_steps();
   }
   return work;
 }

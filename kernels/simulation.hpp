@@ -144,6 +144,7 @@ class Simulation {
     std::int64_t factorisations = 0;  ///< one per model assembly (Newton iteration, refinement)
     std::int64_t structures = 0;      ///< hierarchies made anew (after topology changes)
     double sequential_seconds = 0.0;  ///< set-up time spent on one thread
+    std::int64_t steps = 0;           ///< (sub-)steps whose solves needed it (vcycle_after)
   };
   [[nodiscard]] VcycleWork vcycle_work() const;
 

@@ -129,6 +129,9 @@ inline constexpr int kDefaultSmoothingSweeps = 3;
 /// Newton: how often a direction is solved again after the model reached along it (the
 /// default under Newton; see SolverConfig::model_refinements).
 inline constexpr int kDefaultModelRefinements = 1;
+/// V-cycle: block-Jacobi PCG iterations a step's solves try before the V-cycle is built for
+/// the rest of the step (SolverConfig::vcycle_after).
+inline constexpr int kDefaultVcycleAfter = 4;
 
 /// Minimisation of one step (MODEL.md section 5).
 struct SolverConfig {
@@ -162,6 +165,13 @@ struct SolverConfig {
   int model_refinements = -1;
   /// V-cycle: a level with at most this many nodes is solved directly (sparse LDL^T).
   std::int64_t coarsest_nodes = 64;
+  /// V-cycle: each step's inner solves start with block Jacobi (the model's 3x3 blocks,
+  /// assembled anyway); a solve that has not met its forcing term after this many PCG
+  /// iterations builds the V-cycle and continues from where it is, and the step's later
+  /// solves use the V-cycle from their start. A step the blocks solve (a falling sheet:
+  /// inertia dominates) then never builds the hierarchy. 0: the V-cycle from every step's
+  /// first solve.
+  int vcycle_after = kDefaultVcycleAfter;
   /// Numeric gradient step in scaled units (fraction of the spacing / force reference).
   double numeric_step = 1.0e-6;
   /// Violation formulation weights E = Cn En + Cs Es + Cb Eb + Cc Ec.

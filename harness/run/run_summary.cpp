@@ -170,10 +170,11 @@ void print_summary(const RunSummary& s) {
                s.wall_seconds > 0 ? 100.0 * s.amrc_seconds / s.wall_seconds : 0.0);
   }
   if (s.vcycle.factorisations > 0) {
-    fmt::print("  V-cycle set-up           {} factorisations, {} structures; {:.3f} s ({:.3f} % of "
-               "the run) on one thread\n",
-               s.vcycle.factorisations, s.vcycle.structures, s.vcycle.sequential_seconds,
-               s.wall_seconds > 0 ? 100.0 * s.vcycle.sequential_seconds / s.wall_seconds : 0.0);
+    fmt::print(
+        "  V-cycle set-up           {} factorisations, {} structures in {} (sub-)steps; "
+        "{:.3f} s ({:.3f} % of the run) on one thread\n",
+        s.vcycle.factorisations, s.vcycle.structures, s.vcycle.steps, s.vcycle.sequential_seconds,
+        s.wall_seconds > 0 ? 100.0 * s.vcycle.sequential_seconds / s.wall_seconds : 0.0);
   }
   fmt::print("  memory                   {:.1f} MiB simulation, {:.1f} MiB peak resident\n",
              static_cast<double>(s.simulation_bytes) / (1 << 20),
@@ -253,6 +254,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
     doc["vcycle_setup"] = {
         {"factorisations", s.vcycle.factorisations},
         {"structures", s.vcycle.structures},
+        {"steps", s.vcycle.steps},
         {"sequential_seconds", s.vcycle.sequential_seconds},
         {"share_of_wall", s.wall_seconds > 0 ? s.vcycle.sequential_seconds / s.wall_seconds : 0.0}};
   }

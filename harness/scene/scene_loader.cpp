@@ -199,8 +199,8 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   reader.allow_only({"formulation", "gradient", "kernel", "method", "preconditioner", "line_solves",
                      "tolerance", "max_iterations", "max_newton_iterations",
                      "max_linear_iterations", "smoothing_sweeps", "smoothing_threshold",
-                     "model_refinements", "coarsest_nodes", "numeric_step", "weights",
-                     "stretch_reference_fm", "time_budget_s"});
+                     "model_refinements", "coarsest_nodes", "vcycle_after", "numeric_step",
+                     "weights", "stretch_reference_fm", "time_budget_s"});
   if (auto v = reader.choice("formulation", {"potential", "violation"})) {
     solver.formulation =
         *v == "violation" ? kernels::Formulation::violation : kernels::Formulation::potential;
@@ -255,6 +255,7 @@ void read_solver(const TableReader& reader, kernels::SolverConfig& solver) {
   if (auto v = reader.integer("coarsest_nodes", 1, std::numeric_limits<std::int32_t>::max())) {
     solver.coarsest_nodes = *v;
   }
+  if (auto v = reader.integer("vcycle_after", 0, 1000)) solver.vcycle_after = static_cast<int>(*v);
   if (auto v = reader.number("numeric_step", NumberRange::positive())) solver.numeric_step = *v;
   if (auto v = reader.number("stretch_reference_fm", NumberRange::non_negative(), "0 = m g / h")) {
     solver.stretch_reference_fm = *v;

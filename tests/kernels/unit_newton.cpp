@@ -1,7 +1,8 @@
 // The Newton step solver (kernels/newton_minimiser.hpp): the nonlinear smoothing's colours
 // keep every element to one moving particle per colour and its moves only lower Phi; Newton
 // (with and without the smoothing and the model's refinement) reaches the state nonlinear CG
-// reaches and assembles its model as often as its refinements ask; and damping is a rate, so
+// reaches and assembles its model as often as its refinements ask; the V-cycle is built only
+// for steps whose solves need more than block Jacobi; and damping is a rate, so
 // halving the step does not add damping. The model Hessian: unit_model_hessian.cpp.
 #include <gtest/gtest.h>
 
@@ -120,6 +121,7 @@ TEST(NewtonMinimiser, ReachesTheStateNonlinearCgReaches) {
       {Preconditioner::block_jacobi, Preconditioner::block_jacobi, 0, -1},
       {Preconditioner::line_solves, Preconditioner::line_solves, 0, -1},
       {Preconditioner::line_solves, Preconditioner::multigrid, 0, -1},
+      {Preconditioner::line_solves, Preconditioner::vcycle, 0, -1},
       {Preconditioner::line_solves, Preconditioner::line_solves, 3, -1},
       {Preconditioner::line_solves, Preconditioner::line_solves, 3, 0}};
   for (const auto& [pc, p, sweeps, refinements] : pairs) {
@@ -160,6 +162,7 @@ TEST(NewtonMinimiser, AssemblesTheModelAgainAlongEachDirectionItsRefinementsAsk)
   for (int refinements : {0, 1, 2}) {
     kernels::SimulationConfig c = newton_config(small_drape());
     c.solver.preconditioner = Preconditioner::vcycle;
+    c.solver.vcycle_after = 0;  // the V-cycle from every step's first solve
     c.solver.model_refinements = refinements;
     kernels::Simulation sim(c);
     schedulers::OmpStaticDriver driver;
@@ -176,6 +179,53 @@ TEST(NewtonMinimiser, AssemblesTheModelAgainAlongEachDirectionItsRefinementsAsk)
     EXPECT_GT(newton_iterations, 8) << "the drape needs Newton iterations";
     EXPECT_EQ(sim.vcycle_work().factorisations, expected) << refinements << " refinements";
   }
+}
+
+TEST(NewtonMinimiser, BuildsTheVcycleOnlyForStepsWhoseSolvesNeedIt) {
+  kernels::SimulationConfig c = newton_config(small_drape());
+  c.solver.preconditioner = Preconditioner::vcycle;
+  c.solver.vcycle_after = 4;
+  kernels::Simulation sim(c);
+  schedulers::OmpStaticDriver driver;
+  // The cloth falls freely for its first steps (contact from step 5): inertia dominates the
+  // model and the blocks meet every forcing term, so no hierarchy is built.
+  for (int step = 0; step < 3; ++step) {
+    const kernels::StepReport r = sim.step(driver);
+    EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
+    EXPECT_GT(r.minimiser.linear_iterations, 0) << "step " << r.step;
+  }
+  EXPECT_EQ(sim.vcycle_work().factorisations, 0);
+  EXPECT_EQ(sim.vcycle_work().steps, 0);
+  EXPECT_EQ(sim.vcycle_work().structures, 0);
+  // On the obstacles the blocks stop being enough: a solve builds the V-cycle, and every later
+  // assembly of that step factorises it too.
+  for (int step = 3; step < 10; ++step) {
+    const kernels::StepReport r = sim.step(driver);
+    EXPECT_EQ(r.minimiser.reason, kernels::StopReason::converged) << "step " << r.step;
+  }
+  const kernels::Simulation::VcycleWork work = sim.vcycle_work();
+  EXPECT_GT(work.steps, 0);
+  EXPECT_LE(work.steps, 7);
+  EXPECT_GE(work.factorisations, work.steps);
+}
+
+TEST(NewtonMinimiser, AVcycleNeverNeededGivesTheBitsOfBlockJacobi) {
+  // With vcycle_after at the PCG cap no solve ever switches: every step runs Newton with block
+  // Jacobi, bit for bit.
+  kernels::SimulationConfig jacobi = newton_config(small_drape());
+  jacobi.solver.preconditioner = Preconditioner::block_jacobi;
+  kernels::SimulationConfig lazy = jacobi;
+  lazy.solver.preconditioner = Preconditioner::vcycle;
+  lazy.solver.vcycle_after = lazy.solver.max_linear_iterations;
+  kernels::Simulation a(jacobi), b(lazy);
+  schedulers::OmpStaticDriver driver;
+  for (int step = 0; step < 8; ++step) {
+    const kernels::StepReport ra = a.step(driver), rb = b.step(driver);
+    EXPECT_EQ(ra.minimiser.iterations, rb.minimiser.iterations) << "step " << ra.step;
+    EXPECT_EQ(ra.minimiser.linear_iterations, rb.minimiser.linear_iterations);
+  }
+  EXPECT_EQ(a.state().position, b.state().position);
+  EXPECT_EQ(b.vcycle_work().factorisations, 0);
 }
 
 /// A free-falling 5 x 5 cloth (no obstacle, no strain) with steps of dt and the damping of
