@@ -18,6 +18,27 @@ std::string vector_text(const Eigen::Vector3d& v) {
   return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x(), v.y(), v.z());
 }
 
+/// The numeric settings the run's minimiser used, defaults resolved (a scene that says nothing
+/// about them runs the revision's defaults, which its text does not show).
+nlohmann::json solver_settings_json(const kernels::SolverConfig& solver) {
+  nlohmann::json out{{"tolerance", solver.tolerance},
+                     {"reject_residual", solver.reject_residual},
+                     {"max_step_halvings", solver.max_step_halvings}};
+  if (kernels::resolved_method(solver) == kernels::StepMethod::newton) {
+    out["max_newton_iterations"] = solver.max_newton_iterations;
+    out["max_linear_iterations"] = solver.max_linear_iterations;
+    out["smoothing_sweeps"] = kernels::effective_smoothing_sweeps(solver);
+    out["model_refinements"] = kernels::effective_model_refinements(solver);
+  } else {
+    out["max_iterations"] = solver.max_iterations;
+  }
+  if (kernels::resolved_preconditioner(solver) == kernels::Preconditioner::vcycle) {
+    out["coarsest_nodes"] = solver.coarsest_nodes;
+    out["vcycle_after"] = solver.vcycle_after;
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string describe_event(const kernels::SceneEvent& e) {
@@ -213,19 +234,25 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
   nlohmann::json doc = {
       {"schema", "clothbench.run"},
       {"schema_version", 1},
-      {"scene", {{"name", scene.name}, {"file", scene.file.string()}, {"hash", scene.source_sha256_or_fnv}, {"source", scene.source_text}}},
+      {"scene",
+       {{"name", scene.name},
+        {"file", scene.file.string()},
+        {"hash", scene.source_sha256_or_fnv},
+        {"source", scene.source_text}}},
       {"scheduler", scheduler},
       {"threads", s.threads},
       {"oversubscribed", s.oversubscribed},
       {"wall_seconds", s.wall_seconds},
       {"disturbance", disturbance_json(s.disturbance)},
       {"average_minimised_cost", num(s.average_minimised_cost)},
-      {"solver", {{"formulation", kernels::to_string(scene.simulation.solver.formulation)},
-                  {"gradient", kernels::to_string(scene.simulation.solver.gradient)},
-                  {"method", s.method},
-                  {"kernel", kernels::to_string(scene.simulation.solver.kernel)},
-                  {"preconditioner",
-                   kernels::to_string(kernels::resolved_preconditioner(scene.simulation.solver))}}},
+      {"solver",
+       {{"formulation", kernels::to_string(scene.simulation.solver.formulation)},
+        {"gradient", kernels::to_string(scene.simulation.solver.gradient)},
+        {"method", s.method},
+        {"kernel", kernels::to_string(scene.simulation.solver.kernel)},
+        {"preconditioner",
+         kernels::to_string(kernels::resolved_preconditioner(scene.simulation.solver))},
+        {"settings", solver_settings_json(scene.simulation.solver)}}},
       {"cg_iterations", s.total_iterations},
       {"linear_iterations", s.total_linear_iterations},
       {"evaluations", s.total_evaluations},
@@ -236,8 +263,12 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
       {"max_surface_penetration_m", num(d.max_surface_penetration)},
       {"max_strain", num(d.max_strain)},
       {"mass_error", num(s.mass_error)},
-      {"active", {{"particles", d.active_particles}, {"edges", d.active_edges}, {"triples", d.active_triples}}},
-      {"memory", {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
+      {"active",
+       {{"particles", d.active_particles},
+        {"edges", d.active_edges},
+        {"triples", d.active_triples}}},
+      {"memory",
+       {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
       {"steps", steps}};
   if (!s.events.empty()) {

@@ -29,6 +29,8 @@
 #include <vector>
 
 #include "harness/report/sweep_plots.hpp"
+#include "kernels/simulation_config.hpp"
+#include "kernels/vcycle_preconditioner.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
 namespace {
@@ -269,6 +271,27 @@ json tiny_run(const fs::path& out, const std::string& options, Outcome& o) {
           "OMP_NUM_THREADS=1");
   if (o.exit_code != 0) return json();
   return read_json(out / "sweep-tiny" / "summary.json");
+}
+
+TEST_F(CommandOptions, RunSummaryRecordsTheMinimisersSettingsWithDefaultsResolved) {
+  Outcome newton_run, cg_run;
+  const json newton = tiny_run(fresh_dir("settings-newton"), "", newton_run);
+  const json cg = tiny_run(fresh_dir("settings-cg"), "--method nonlinear-cg", cg_run);
+  ASSERT_EQ(newton_run.exit_code, 0) << newton_run.output;
+  ASSERT_EQ(cg_run.exit_code, 0) << cg_run.output;
+  // The scene names only nonlinear CG's cap (20); the rest are this revision's defaults.
+  const json& n = newton["solver"]["settings"];
+  EXPECT_EQ(newton["solver"]["preconditioner"], "v-cycle") << newton["solver"].dump();
+  EXPECT_EQ(n["vcycle_after"], clothbench::kernels::kDefaultVcycleAfter) << n.dump();
+  EXPECT_EQ(n["smoothing_sweeps"], clothbench::kernels::kDefaultSmoothingSweeps);
+  EXPECT_EQ(n["model_refinements"], clothbench::kernels::kDefaultModelRefinements);
+  EXPECT_EQ(n["coarsest_nodes"], clothbench::kernels::VcyclePreconditioner::kCoarsestNodes);
+  EXPECT_FALSE(n.contains("max_iterations"));
+  const json& c = cg["solver"]["settings"];
+  EXPECT_EQ(c["max_iterations"], 20) << c.dump();
+  EXPECT_FALSE(c.contains("vcycle_after"));
+  EXPECT_FALSE(c.contains("smoothing_sweeps"));
+  EXPECT_EQ(c["tolerance"], n["tolerance"]);
 }
 
 TEST_F(CommandOptions, RunGradientNumericReachesTheKernel) {
