@@ -15,7 +15,7 @@ namespace clothbench::kernels {
 namespace {
 
 /// Solves L L^T x = b in place with the factor of band_cholesky.
-void band_solve(const double* band, std::int64_t n, int w, double* x) {
+CLOTHBENCH_SCALAR_LOOPS void band_solve(const double* band, std::int64_t n, int w, double* x) {
   const std::int64_t row = w + 1;
   for (std::int64_t r = 0; r < n; ++r) {
     double sum = x[r];
@@ -32,7 +32,7 @@ void band_solve(const double* band, std::int64_t n, int w, double* x) {
 }
 
 /// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
-inline void block_residual(const std::int64_t* start, const std::int64_t* col, const double* value,
+CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start, const std::int64_t* col, const double* value,
                            std::int64_t a, const double* x, const double* b, double* out) {
   double r0 = b[3 * a], r1 = b[3 * a + 1], r2 = b[3 * a + 2];
   for (std::int64_t blk = start[a]; blk < start[a + 1]; ++blk) {
@@ -49,7 +49,7 @@ inline void block_residual(const std::int64_t* start, const std::int64_t* col, c
 
 }  // namespace
 
-void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
   Lines& l = level.lines[d];
   if (l.ok[line] == 0) return;
   const std::int64_t first = l.start[line];

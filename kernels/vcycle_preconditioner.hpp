@@ -43,6 +43,16 @@
 #include "kernels/step_context.hpp"
 #include "kernels/topology_key.hpp"
 
+/// Marks the line kernels (band Cholesky, band solves, line residuals): short loops whose
+/// sums run in series. GCC's -O3 vectoriser packs them into shuffles that are slower than
+/// the scalar loops (perf on paper/box-257, 40 steps, 1 thread: factor_line 1.7x faster
+/// without it); the arithmetic and its order, hence the bits, are the same either way.
+#if defined(__GNUC__) && !defined(__clang__)
+#define CLOTHBENCH_SCALAR_LOOPS __attribute__((optimize("no-tree-vectorize")))
+#else
+#define CLOTHBENCH_SCALAR_LOOPS
+#endif
+
 namespace clothbench::kernels {
 
 class VcyclePreconditioner {

@@ -41,7 +41,7 @@ int around(int index, int s, int lines, int out[2], double weight[2]) {
 /// Lower band of a symmetric positive definite band matrix (half-bandwidth w, row-major rows
 /// of w + 1 entries, entry (r, c) for r - w <= c <= r at r * (w + 1) + c - r + w) overwritten
 /// by its Cholesky factor L. False on a non-positive pivot.
-bool band_cholesky(double* band, std::int64_t n, int w) {
+CLOTHBENCH_SCALAR_LOOPS bool band_cholesky(double* band, std::int64_t n, int w) {
   const std::int64_t row = w + 1;
   for (std::int64_t r = 0; r < n; ++r) {
     const std::int64_t first = std::max<std::int64_t>(0, r - w);
@@ -292,7 +292,7 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
   l.ok.assign(static_cast<std::size_t>(lines), 0);
 }
 
-void VcyclePreconditioner::factor_line(Level& level, int d, std::int64_t line) {
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int d, std::int64_t line) {
   Lines& l = level.lines[d];
   const int w = l.width[line];
   double* band = l.band.data() + l.band_start[line];
