@@ -59,7 +59,19 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
     lower = band.loading_inverse(previous);
     upper = std::max(lower, band.unloading_inverse(previous));
   }
-  const double lower_potential = band.loading_integral(lower);
+  double lower_potential, upper_integral, strain_integral;
+  if constexpr (std::is_same_v<Band, TensileBand>) {
+    // Below EMT a power curve's integral is its value times eps / (exponent + 1), and at the
+    // breakpoints the curves' values are the previous force: no further pow.
+    lower_potential =
+        lower < band.emt ? previous * lower / (band.p + 1.0) : band.loading_integral(lower);
+    upper_integral =
+        upper < band.emt ? previous * upper / (band.q + 1.0) : band.unloading_integral(upper);
+    strain_integral =
+        strain < band.emt ? c.lower * strain / (band.q + 1.0) : band.unloading_integral(strain);
+  } else {
+    lower_potential = band.loading_integral(lower);
+  }
   if (!(previous < c.lower)) {  // plateau: the previous force is kept
     r.force = previous;
     r.potential = lower_potential + previous * (strain - lower);
@@ -67,8 +79,11 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
   }
   r.force = c.lower;  // unloading branch
   r.slope = c.lower_slope;
-  r.potential = lower_potential + previous * (upper - lower) - band.unloading_integral(upper) +
-                band.unloading_integral(strain);
+  if constexpr (!std::is_same_v<Band, TensileBand>) {
+    upper_integral = band.unloading_integral(upper);
+    strain_integral = band.unloading_integral(strain);
+  }
+  r.potential = lower_potential + previous * (upper - lower) - upper_integral + strain_integral;
   return r;
 }
 

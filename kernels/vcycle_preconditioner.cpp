@@ -14,26 +14,28 @@ namespace clothbench::kernels {
 
 namespace {
 
-/// Solves L L^T x = b in place with the factor of band_cholesky.
+/// Solves L L^T x = b in place with the factor of band_cholesky (reciprocal pivots).
 CLOTHBENCH_SCALAR_LOOPS void band_solve(const double* band, std::int64_t n, int w, double* x) {
   const std::int64_t row = w + 1;
   for (std::int64_t r = 0; r < n; ++r) {
     double sum = x[r];
     for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k)
       sum -= band[r * row + k - r + w] * x[k];
-    x[r] = sum / band[r * row + w];
+    x[r] = sum * band[r * row + w];
   }
   for (std::int64_t r = n - 1; r >= 0; --r) {
     double sum = x[r];
     const std::int64_t last = std::min<std::int64_t>(n - 1, r + w);
     for (std::int64_t k = r + 1; k <= last; ++k) sum -= band[k * row + r - k + w] * x[k];
-    x[r] = sum / band[r * row + w];
+    x[r] = sum * band[r * row + w];
   }
 }
 
 /// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
-CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start, const std::int64_t* col, const double* value,
-                           std::int64_t a, const double* x, const double* b, double* out) {
+CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start,
+                                                   const std::int64_t* col, const double* value,
+                                                   std::int64_t a, const double* x, const double* b,
+                                                   double* out) {
   double r0 = b[3 * a], r1 = b[3 * a + 1], r2 = b[3 * a + 2];
   for (std::int64_t blk = start[a]; blk < start[a + 1]; ++blk) {
     const double* m = value + 9 * blk;
@@ -49,7 +51,8 @@ CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start, co
 
 }  // namespace
 
-CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::update_line(Level& level, int d, std::int64_t line) {
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::update_line(Level& level, int d,
+                                                               std::int64_t line) {
   Lines& l = level.lines[d];
   if (l.ok[line] == 0) return;
   const std::int64_t first = l.start[line];

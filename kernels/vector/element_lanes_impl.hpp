@@ -93,12 +93,6 @@ struct Lanes {
     return t.fm * t.emt / (exponent + V(1.0)) + t.fm * beyond +
            V(0.5) * t.fm * t.p / t.emt * beyond * beyond;
   }
-  /// power_integral(eps, exponent) of TensileBand.
-  static V tensile_integral(const Tensile& t, const V& eps, const V& exponent) {
-    const V linear = tensile_linear_integral(t, eps, exponent);
-    const V power = t.fm * xsimd::pow(eps / t.emt, exponent) * eps / (exponent + V(1.0));
-    return xsimd::select(eps > V(0.0), xsimd::select(eps >= t.emt, linear, power), V(0.0));
-  }
   /// power_inverse(force, exponent) of TensileBand.
   static V tensile_inverse(const Tensile& t, const V& force, const V& exponent) {
     const V linear = t.emt + (force - t.fm) * t.emt / (t.fm * t.p);
@@ -146,11 +140,16 @@ struct Lanes {
         // plateau or unloading: the breakpoints of the previous force
         const V lower_bp = tensile_inverse(t, prev, t.p);
         const V upper_bp = xsimd::max(lower_bp, tensile_inverse(t, prev, t.q));
-        const V lower_potential = tensile_integral(t, lower_bp, t.p);
-        return OffLoading{lower_potential + prev * (strain - lower_bp),
-                          lower_potential + prev * (upper_bp - lower_bp) -
-                              tensile_integral(t, upper_bp, t.q) +
-                              tensile_integral(t, strain, t.q)};
+        // below EMT the integrals from the curves' values, as fast_return_map takes them
+        const V lower_potential = xsimd::select(lower_bp < t.emt, prev * lower_bp / (t.p + V(1.0)),
+                                                tensile_linear_integral(t, lower_bp, t.p));
+        const V upper_integral = xsimd::select(upper_bp < t.emt, prev * upper_bp / (t.q + V(1.0)),
+                                               tensile_linear_integral(t, upper_bp, t.q));
+        const V strain_integral = xsimd::select(strain < t.emt, lower * strain / (t.q + V(1.0)),
+                                                tensile_linear_integral(t, strain, t.q));
+        return OffLoading{
+            lower_potential + prev * (strain - lower_bp),
+            lower_potential + prev * (upper_bp - lower_bp) - upper_integral + strain_integral};
       });
       const V energy = w * l0 * mapped.potential;
       const V density = xsimd::select(length > V(0.0), w * mapped.force / length, V(0.0));
