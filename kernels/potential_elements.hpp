@@ -4,6 +4,8 @@
 #pragma once
 
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "kernels/ghost_nodes.hpp"
 #include "kernels/loop_bytes.hpp"
@@ -158,6 +160,37 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
   term.coefficient[2] = wm * term.angle.c;
   return term;
 }
+
+/// The element terms around one particle at the stored positions, each computed once and read
+/// by that particle's smoothing move (PotentialObjective::smooth): its gradient, its diagonal
+/// block and its starting energy read the values they would compute themselves (the same
+/// function of the same positions), so the memo changes no bit.
+struct LocalTerms {
+  std::vector<std::pair<std::int64_t, EdgeTerm>> edges;
+  std::vector<std::pair<std::int64_t, TripleTerm>> triples;
+  void clear() {
+    edges.clear();
+    triples.clear();
+  }
+  /// edge_term(ctx, id, x), x the stored positions (or positions equal to them).
+  template <class Positions>
+  EdgeTerm edge(const StepContext& ctx, std::int64_t id, const Positions& x) {
+    for (const auto& [known, term] : edges) {
+      if (known == id) return term;
+    }
+    edges.emplace_back(id, edge_term(ctx, id, x));
+    return edges.back().second;
+  }
+  /// triple_term(ctx, id, x), likewise.
+  template <class Positions>
+  TripleTerm triple(const StepContext& ctx, std::int64_t id, const Positions& x) {
+    for (const auto& [known, term] : triples) {
+      if (known == id) return term;
+    }
+    triples.emplace_back(id, triple_term(ctx, id, x));
+    return triples.back().second;
+  }
+};
 
 /// Calls edge(id) for every active edge and triple(id) for every active triple that node k
 /// belongs to (an element touching two given nodes is reported for each; ghosts' own

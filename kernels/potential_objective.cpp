@@ -92,11 +92,11 @@ void PotentialObjective::begin_step(LoopRunner& run) {
   }
 }
 
-Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id) const {
+Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id, LocalTerms* terms) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  const EdgeTerm e = edge_term(ctx_, id, x);
+  const EdgeTerm e = terms != nullptr ? terms->edge(ctx_, id, x) : edge_term(ctx_, id, x);
   if (e.length <= 0.0) return Eigen::Matrix3d::Zero();
   const Eigen::Vector3d u = (x(mesh.next[id]) - x(element_slot(id))) / e.length;
   const double w = mesh.edge_width[id];
@@ -105,14 +105,15 @@ Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id) const {
          w * std::max(e.force, 0.0) / e.length * (Eigen::Matrix3d::Identity() - uu);
 }
 
-Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask mask) const {
+Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask mask,
+                                                   LocalTerms* terms) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   const double dt = ctx_.dt();
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity() * (mesh.mass[s] / (dt * dt));
   auto add_triple = [&](std::int64_t id, int role) {  // role 0 = a, 1 = c, 2 = b
-    const TripleTerm t = triple_term(ctx_, id, x);
+    const TripleTerm t = terms != nullptr ? terms->triple(ctx_, id, x) : triple_term(ctx_, id, x);
     if (t.angle.degenerate || t.slope <= 0.0) return;
     const std::int64_t c = element_slot(id);
     const Eigen::Vector3d e1 = x(c) - x(mesh.prev[id]), e2 = x(mesh.next[id]) - x(c);
@@ -124,9 +125,9 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
   for (int d = 0; d < 2; ++d) {
     const std::int64_t id = element_id(s, d);
     const std::int32_t n = mesh.next[id], p = mesh.prev[id];
-    if (mesh.edge_active[id]) h += edge_tangent(id);
+    if (mesh.edge_active[id]) h += edge_tangent(id, terms);
     if (p >= 0 && mesh.edge_active[element_id(p, d)] && mesh.next[element_id(p, d)] == s) {
-      h += edge_tangent(element_id(p, d));
+      h += edge_tangent(element_id(p, d), terms);
     }
     if (mesh.triple_active[id]) add_triple(id, 1);
     if (n >= 0 && mesh.triple_active[element_id(n, d)] && mesh.prev[element_id(n, d)] == s) {
@@ -197,7 +198,8 @@ void PotentialObjective::precondition(LoopRunner& run, Evaluation& e) {
   e.grad_old_dot_z = p.grad_old_dot_z;
 }
 
-double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs) const {
+double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& xs,
+                                        LocalTerms* terms) const {
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   // The nodes that move with s: s itself and the ghosts hanging on it (recursively), each by
@@ -237,6 +239,11 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
                   m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
                   contact_penalty(ctx_, s, xs).energy;
   if (ctx_.is_forced(s)) energy -= ctx_.external_force(s).dot(xs - vec3(st.step_start, s));
+  if (terms != nullptr) {
+    for (std::int64_t id : edges) energy += terms->edge(ctx_, id, x).energy;
+    for (std::int64_t id : triples) energy += terms->triple(ctx_, id, x).energy;
+    return energy;
+  }
   for (std::int64_t id : edges) energy += edge_term(ctx_, id, x).energy;
   for (std::int64_t id : triples) energy += triple_term(ctx_, id, x).energy;
   return energy;

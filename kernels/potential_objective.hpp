@@ -19,6 +19,8 @@
 
 namespace clothbench::kernels {
 
+struct LocalTerms;
+
 class PotentialObjective final : public StepObjective {
  public:
   explicit PotentialObjective(const StepContext& ctx);
@@ -83,20 +85,23 @@ class PotentialObjective final : public StepObjective {
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
   /// (the local cost the numeric gradient differentiates).
-  double local_energy(std::int64_t s, const Eigen::Vector3d& xs) const;
+  /// `terms`: a memo of the element terms at the stored positions (only with xs equal to
+  /// s's stored position), filled by local_gradient and diagonal_block.
+  double local_energy(std::int64_t s, const Eigen::Vector3d& xs, LocalTerms* terms = nullptr) const;
   Eigen::Vector3d numeric_gradient(std::int64_t s) const;
   /// The gradient of Phi at particle s from the current positions (what evaluate computes
   /// for s, without the loops over every element).
-  Eigen::Vector3d local_gradient(std::int64_t s) const;
+  Eigen::Vector3d local_gradient(std::int64_t s, LocalTerms* terms = nullptr) const;
   /// The particle's own part of the gradient at xs: inertia, gravity and `contact` (evaluated
   /// at xs); the elements' part is gathered and a scripted force subtracted after it.
   Eigen::Vector3d own_gradient(std::int64_t s, const Eigen::Vector3d& xs,
                                const ContactPenalty& contact) const;
   /// 3x3 stiffness block of particle s (inertia, elements' tangent, contact with the
   /// obstacles in `mask`).
-  Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask) const;
+  Eigen::Matrix3d diagonal_block(std::int64_t s, ObstacleMask mask,
+                                 LocalTerms* terms = nullptr) const;
   /// Tangent K_e of edge id (material slope along the edge, tension across it).
-  Eigen::Matrix3d edge_tangent(std::int64_t id) const;
+  Eigen::Matrix3d edge_tangent(std::int64_t id, LocalTerms* terms = nullptr) const;
   /// The edge and triple loops of evaluate() by the vector twin (ElementKernel::vector):
   /// each tile's elements in SIMD lanes, writing the same scratch slots and tile partials.
   void evaluate_elements_vector(LoopRunner& run);

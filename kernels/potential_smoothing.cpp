@@ -80,7 +80,7 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
   }  // the single's closing barrier publishes the colouring
 }
 
-Eigen::Vector3d PotentialObjective::local_gradient(std::int64_t s) const {
+Eigen::Vector3d PotentialObjective::local_gradient(std::int64_t s, LocalTerms* terms) const {
   if (ctx_.config.solver.gradient == GradientMode::numeric) return numeric_gradient(s);
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -88,9 +88,14 @@ Eigen::Vector3d PotentialObjective::local_gradient(std::int64_t s) const {
   Eigen::Vector3d g =
       own_gradient(s, xs, contact_penalty(ctx_, s, xs)) +
       gather_elastic(
-          ctx_.mesh, s, x, [&](std::int64_t id) { return edge_term(ctx_, id, x).force_density; },
+          ctx_.mesh, s, x,
           [&](std::int64_t id) {
-            const TripleTerm t = triple_term(ctx_, id, x);
+            return (terms != nullptr ? terms->edge(ctx_, id, x) : edge_term(ctx_, id, x))
+                .force_density;
+          },
+          [&](std::int64_t id) {
+            const TripleTerm t =
+                terms != nullptr ? terms->triple(ctx_, id, x) : triple_term(ctx_, id, x);
             return Eigen::Vector3d(t.coefficient[0], t.coefficient[1], t.coefficient[2]);
           });
   if (ctx_.is_forced(s)) g -= ctx_.external_force(s);  // as evaluate subtracts it
@@ -127,13 +132,17 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
           });
           if (!touched) return;
         }
-        const Eigen::Vector3d g = local_gradient(s);
+        // The element terms at the stored positions are computed once for the gradient, the
+        // block and the starting energy.
+        thread_local LocalTerms terms;
+        terms.clear();
+        const Eigen::Vector3d g = local_gradient(s, &terms);
         if (!(g.norm() >= threshold * weight)) return;
         const Eigen::Vector3d xs = vec3(st.position, s);
-        const Eigen::Vector3d step = -diagonal_block(s, kEveryObstacle).ldlt().solve(g);
+        const Eigen::Vector3d step = -diagonal_block(s, kEveryObstacle, &terms).ldlt().solve(g);
         const double slope = g.dot(step);
         if (!(slope < 0.0)) return;
-        const double before = local_energy(s, xs);
+        const double before = local_energy(s, xs, &terms);
         double alpha = 1.0;
         for (int halving = 0; halving <= 8; ++halving, alpha *= 0.5) {
           const Eigen::Vector3d trial = xs + alpha * step;
