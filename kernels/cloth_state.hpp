@@ -31,7 +31,9 @@ struct ClothState {
   std::vector<double> step_start;    ///< x^n, positions at the start of the step (m)
   std::vector<double> target;        ///< x~ = x^n + (1 - c)(x^n - x^(n-1)) (m)
   std::vector<double> gradient;      ///< d(objective)/dx at the current iterate
-  std::vector<double> gradient_old;  ///< gradient at the start of the CG iteration
+  /// Gradient at the start of the CG iteration; empty under Newton, which has no use for it
+  /// (allocate's `cg_history`: 24 bytes a slot, 24 MB at the paper's 1001^2).
+  std::vector<double> gradient_old;
   std::vector<double> direction;     ///< CG search direction
   std::vector<float> preconditioner; ///< 6 per slot: inverse 3x3 block (xx xy xz yy yz zz)
   // elements (per element id)
@@ -45,12 +47,13 @@ struct ClothState {
   /// External forces (sparse: a few particles at most; looked up only for forced slots).
   std::vector<ExternalForce> external_forces;
 
-  /// Allocates every array for `slots` particles (zero-filled).
-  void allocate(std::int64_t slots) {
+  /// Allocates every array for `slots` particles (zero-filled); gradient_old only with
+  /// `cg_history` (the nonlinear CG minimiser's).
+  void allocate(std::int64_t slots, bool cg_history = true) {
     const auto n = static_cast<std::size_t>(slots);
-    for (auto* v : {&position, &step_start, &target, &gradient, &gradient_old, &direction}) {
-      v->assign(3 * n, 0.0);
-    }
+    for (auto* v : {&position, &step_start, &target, &gradient, &direction}) v->assign(3 * n, 0.0);
+    gradient_old.assign(cg_history ? 3 * n : 0, 0.0);
+    gradient_old.shrink_to_fit();
     preconditioner.assign(6 * n, 0.0f);
     edge_force.assign(2 * n, 0.0);
     triple_moment.assign(2 * n, 0.0);

@@ -186,12 +186,13 @@ void PotentialObjective::precondition(LoopRunner& run, Evaluation& e) {
   if (lines_ == nullptr) return;
   ClothState& st = ctx_.state;
   lines_->apply(run, ctx_, st.gradient, line_z_);
+  const bool history = !st.gradient_old.empty();
   run.for_each<GatherSums>(ElementKind::particles, &precondition_partials_,
                            LoopBytes{.read = 3 * bytes::kVector3},  // z, g, g_old
                            [&](std::int64_t s, GatherSums& acc) {
                              const Eigen::Vector3d z = vec3(line_z_, s);
                              acc.grad_dot_z += vec3(st.gradient, s).dot(z);
-                             acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
+                             if (history) acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
                            });
   const GatherSums p = run.reduce(precondition_partials_);
   e.grad_dot_z = p.grad_dot_z;
@@ -276,6 +277,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
   const ClothMesh& mesh = ctx_.mesh;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   const bool numeric = ctx_.config.solver.gradient == GradientMode::numeric;
+  const bool history = !st.gradient_old.empty();  // nonlinear CG's g_old (none under Newton)
 
   if (ctx_.config.solver.kernel == ElementKernel::vector) {
     evaluate_elements_vector(run);
@@ -345,7 +347,7 @@ Evaluation PotentialObjective::evaluate(LoopRunner& run) {
           acc.residual_max = std::max(acc.residual_max, ratio);
           acc.slope += g.dot(vec3(st.direction, s));
           acc.grad_dot_z += g.dot(z);
-          acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
+          if (history) acc.grad_old_dot_z += vec3(st.gradient_old, s).dot(z);
           acc.free_particles += 1;
         });
   }

@@ -59,7 +59,7 @@ inline ParticleLanesArgs particle_lanes_args(const ClothMesh& mesh, ClothState& 
                          state.target.data(),
                          state.step_start.data(),
                          state.direction.data(),
-                         state.gradient_old.data(),
+                         state.gradient_old.empty() ? nullptr : state.gradient_old.data(),
                          state.preconditioner.data(),
                          mesh.mass.data(),
                          mesh.flags.data(),

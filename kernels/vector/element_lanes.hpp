@@ -62,7 +62,7 @@ struct ParticleLanesArgs {
   const double* target;         ///< x~, xyz per slot
   const double* step_start;     ///< x^n, xyz per slot
   const double* direction;      ///< xyz per slot
-  const double* gradient_old;   ///< xyz per slot
+  const double* gradient_old;   ///< xyz per slot; null under Newton (no CG history)
   const float* preconditioner;  ///< 6 per slot: symmetric inverse block (xx xy xz yy yz zz)
   const double* mass;           ///< per slot, kg
   const std::uint8_t* flags;    ///< per slot: ParticleFlag bits (free = active, not pinned)

@@ -155,7 +155,11 @@ struct ParticleLanes {
       (xsimd::sqrt(g.dot(g)) / (m * g_ref)).store_aligned(ratio);
       g.dot(gather3(a.direction, at)).store_aligned(slope);
       g.dot(z).store_aligned(grad_dot_z);
-      gather3(a.gradient_old, at).dot(z).store_aligned(grad_old_dot_z);
+      if (a.gradient_old != nullptr) {  // nonlinear CG's g_old; none under Newton
+        gather3(a.gradient_old, at).dot(z).store_aligned(grad_old_dot_z);
+      } else {
+        V(0.0).store_aligned(grad_old_dot_z);
+      }
       for (int l = 0; l < live; ++l) {
         double* to = a.gradient + own.at[l];
         for (int c = 0; c < 3; ++c) to[c] = out[c][l];
