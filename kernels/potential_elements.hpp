@@ -39,13 +39,14 @@ inline constexpr double kGatherElasticRead =
 template <class Band>
 inline ReturnMapped fast_return_map(const Band& band, double previous, double strain,
                                     const double* cached) {
+  constexpr bool tension = std::is_same_v<Band, TensileBand>;
   ReturnMapped r;
   if (!(strain > 0.0)) return r;
   const BandCurves c = band.curves(strain);
   if (!(previous < c.upper)) {  // loading branch
     r.force = c.upper;
     r.slope = c.upper_slope;
-    if constexpr (std::is_same_v<Band, TensileBand>) {
+    if constexpr (tension) {
       r.potential = strain < band.emt ? c.upper * strain / (band.p + 1.0)
                                       : band.loading_integral(strain);
     } else {
@@ -61,16 +62,12 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
     lower = band.loading_inverse(previous);
     upper = std::max(lower, band.unloading_inverse(previous));
   }
-  double lower_potential, upper_integral, strain_integral;
-  if constexpr (std::is_same_v<Band, TensileBand>) {
-    // Below EMT a power curve's integral is its value times eps / (exponent + 1), and at the
-    // breakpoints the curves' values are the previous force: no further pow.
+  // Tension below EMT: a power curve's integral is its value times eps / (exponent + 1), and
+  // at the breakpoints the curves' values are the previous force (no further pow).
+  double lower_potential;
+  if constexpr (tension) {
     lower_potential =
         lower < band.emt ? previous * lower / (band.p + 1.0) : band.loading_integral(lower);
-    upper_integral =
-        upper < band.emt ? previous * upper / (band.q + 1.0) : band.unloading_integral(upper);
-    strain_integral =
-        strain < band.emt ? c.lower * strain / (band.q + 1.0) : band.unloading_integral(strain);
   } else {
     lower_potential = band.loading_integral(lower);
   }
@@ -81,7 +78,13 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
   }
   r.force = c.lower;  // unloading branch
   r.slope = c.lower_slope;
-  if constexpr (!std::is_same_v<Band, TensileBand>) {
+  double upper_integral, strain_integral;
+  if constexpr (tension) {
+    upper_integral =
+        upper < band.emt ? previous * upper / (band.q + 1.0) : band.unloading_integral(upper);
+    strain_integral =
+        strain < band.emt ? c.lower * strain / (band.q + 1.0) : band.unloading_integral(strain);
+  } else {
     upper_integral = band.unloading_integral(upper);
     strain_integral = band.unloading_integral(strain);
   }
@@ -172,25 +175,33 @@ struct LocalTerms {
     edges.clear();
     triples.clear();
   }
-  /// edge_term(ctx, id, x), x the stored positions (or positions equal to them).
-  template <class Positions>
-  EdgeTerm edge(const StepContext& ctx, std::int64_t id, const Positions& x) {
-    for (const auto& [known, term] : edges) {
+  /// The memo's term of element id, computed by `compute()` the first time it is asked for.
+  template <class Term, class Compute>
+  static Term find_or_add(std::vector<std::pair<std::int64_t, Term>>& list, std::int64_t id,
+                          Compute&& compute) {
+    for (const auto& [known, term] : list) {
       if (known == id) return term;
     }
-    edges.emplace_back(id, edge_term(ctx, id, x));
-    return edges.back().second;
-  }
-  /// triple_term(ctx, id, x), likewise.
-  template <class Positions>
-  TripleTerm triple(const StepContext& ctx, std::int64_t id, const Positions& x) {
-    for (const auto& [known, term] : triples) {
-      if (known == id) return term;
-    }
-    triples.emplace_back(id, triple_term(ctx, id, x));
-    return triples.back().second;
+    list.emplace_back(id, compute());
+    return list.back().second;
   }
 };
+
+/// edge_term at the stored positions x, through `memo` when there is one.
+template <class Positions>
+inline EdgeTerm edge_term(const StepContext& ctx, std::int64_t id, const Positions& x,
+                          LocalTerms* memo) {
+  if (memo == nullptr) return edge_term(ctx, id, x);
+  return LocalTerms::find_or_add(memo->edges, id, [&] { return edge_term(ctx, id, x); });
+}
+
+/// triple_term at the stored positions x, through `memo` when there is one.
+template <class Positions>
+inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Positions& x,
+                              LocalTerms* memo) {
+  if (memo == nullptr) return triple_term(ctx, id, x);
+  return LocalTerms::find_or_add(memo->triples, id, [&] { return triple_term(ctx, id, x); });
+}
 
 /// Calls edge(id) for every active edge and triple(id) for every active triple that node k
 /// belongs to (an element touching two given nodes is reported for each; ghosts' own

@@ -96,7 +96,7 @@ Eigen::Matrix3d PotentialObjective::edge_tangent(std::int64_t id, LocalTerms* te
   const ClothMesh& mesh = ctx_.mesh;
   const ClothState& st = ctx_.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
-  const EdgeTerm e = terms != nullptr ? terms->edge(ctx_, id, x) : edge_term(ctx_, id, x);
+  const EdgeTerm e = edge_term(ctx_, id, x, terms);
   if (e.length <= 0.0) return Eigen::Matrix3d::Zero();
   const Eigen::Vector3d u = (x(mesh.next[id]) - x(element_slot(id))) / e.length;
   const double w = mesh.edge_width[id];
@@ -113,7 +113,7 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
   const double dt = ctx_.dt();
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity() * (mesh.mass[s] / (dt * dt));
   auto add_triple = [&](std::int64_t id, int role) {  // role 0 = a, 1 = c, 2 = b
-    const TripleTerm t = terms != nullptr ? terms->triple(ctx_, id, x) : triple_term(ctx_, id, x);
+    const TripleTerm t = triple_term(ctx_, id, x, terms);
     if (t.angle.degenerate || t.slope <= 0.0) return;
     const std::int64_t c = element_slot(id);
     const Eigen::Vector3d e1 = x(c) - x(mesh.prev[id]), e2 = x(mesh.next[id]) - x(c);
@@ -240,13 +240,8 @@ double PotentialObjective::local_energy(std::int64_t s, const Eigen::Vector3d& x
                   m * ctx_.config.time.gravity.dot(xs - vec3(st.step_start, s)) +
                   contact_penalty(ctx_, s, xs).energy;
   if (ctx_.is_forced(s)) energy -= ctx_.external_force(s).dot(xs - vec3(st.step_start, s));
-  if (terms != nullptr) {
-    for (std::int64_t id : edges) energy += terms->edge(ctx_, id, x).energy;
-    for (std::int64_t id : triples) energy += terms->triple(ctx_, id, x).energy;
-    return energy;
-  }
-  for (std::int64_t id : edges) energy += edge_term(ctx_, id, x).energy;
-  for (std::int64_t id : triples) energy += triple_term(ctx_, id, x).energy;
+  for (std::int64_t id : edges) energy += edge_term(ctx_, id, x, terms).energy;
+  for (std::int64_t id : triples) energy += triple_term(ctx_, id, x, terms).energy;
   return energy;
 }
 

@@ -89,13 +89,9 @@ Eigen::Vector3d PotentialObjective::local_gradient(std::int64_t s, LocalTerms* t
       own_gradient(s, xs, contact_penalty(ctx_, s, xs)) +
       gather_elastic(
           ctx_.mesh, s, x,
+          [&](std::int64_t id) { return edge_term(ctx_, id, x, terms).force_density; },
           [&](std::int64_t id) {
-            return (terms != nullptr ? terms->edge(ctx_, id, x) : edge_term(ctx_, id, x))
-                .force_density;
-          },
-          [&](std::int64_t id) {
-            const TripleTerm t =
-                terms != nullptr ? terms->triple(ctx_, id, x) : triple_term(ctx_, id, x);
+            const TripleTerm t = triple_term(ctx_, id, x, terms);
             return Eigen::Vector3d(t.coefficient[0], t.coefficient[1], t.coefficient[2]);
           });
   if (ctx_.is_forced(s)) g -= ctx_.external_force(s);  // as evaluate subtracts it
