@@ -114,11 +114,21 @@ class ModelHessian {
                std::int64_t s, const std::int64_t* cols, std::int64_t count,
                double* values) const;
 
-  /// One byte per element id: 1 where the assembled model has bending stiffness (the triples
-  /// that add blocks besides their edges'). Sequential.
-  void bending_pattern(std::vector<std::uint8_t>& out) const {
-    out.resize(bending_.size());
-    for (std::size_t id = 0; id < bending_.size(); ++id) out[id] = bending_[id] > 0.0 ? 1 : 0;
+  /// The columns of free particle s's row in every model on this mesh whose triples with
+  /// bending stiffness are this one's: for_each_unknown_block's `structure` pattern by rows
+  /// (every active edge at s or at a ghost hanging on it, recursively, and every such triple
+  /// with bending stiffness, each node expanded to its unknowns), sorted and distinct, into
+  /// `cols`. The same traversal as sum_row, whose `cols` it makes; one row per call, so the
+  /// V-cycle's level 0 pattern is made by rows in parallel.
+  void row_pattern(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
+                   std::int64_t s, std::vector<std::int64_t>& cols) const;
+
+  /// Whether triple id has bending stiffness in the assembled model (adds blocks besides its
+  /// edges'; the V-cycle's structure depends on which triples do).
+  [[nodiscard]] bool bends(std::int64_t id) const { return bending_[id] > 0.0; }
+  /// Element ids bends() answers for.
+  [[nodiscard]] std::int64_t element_ids() const {
+    return static_cast<std::int64_t>(bending_.size());
   }
 
   /// Bending coefficient c of triple id as assembled (w dM/dkappa / rest, or what the secants

@@ -66,6 +66,20 @@ bool triple_jacobians(const ClothMesh& mesh, const ClothState& st, std::int64_t 
   return true;
 }
 
+/// Calls edge(r, w, id) and triple(r, w, id) for every element touching node r, then for
+/// every ghost hanging on r, recursively, at half the weight w: the terms of node r's row
+/// (ModelHessian::sum_row, ModelHessian::row_pattern).
+template <class Edge, class Triple>
+void for_each_row_element(const ClothMesh& mesh, std::int64_t r, double w, const Edge& edge,
+                          const Triple& triple) {
+  for_each_element_at(
+      mesh, r, [&](std::int64_t id) { edge(r, w, id); },
+      [&](std::int64_t id) { triple(r, w, id); });
+  for_each_ghost_child(mesh, r, [&](std::int64_t child) {
+    for_each_row_element(mesh, child, 0.5 * w, edge, triple);
+  });
+}
+
 }  // namespace
 
 std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* count) {
@@ -182,26 +196,51 @@ void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_
       }
     }
   };
-  auto node_rows = [&](auto&& self, std::int64_t r, double wr) -> void {
-    for_each_element_at(
-        mesh, r,
-        [&](std::int64_t id) {
-          Eigen::Matrix3d k;
-          if (!edge_stiffness(mesh, st, id, edge_[2 * id], edge_[2 * id + 1], k)) return;
-          add(wr, r, k);
-          add(wr, r == element_slot(id) ? mesh.next[id] : element_slot(id), -k);
-        },
-        [&](std::int64_t id) {
-          Eigen::Matrix3d j[3];
-          std::int64_t node[3];
-          if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, j, node)) return;
-          const int i = r == node[0] ? 0 : (r == node[1] ? 1 : 2);
-          for (int q = 0; q < 3; ++q) add(wr, node[q], bending_[id] * j[i] * j[q]);
-        });
-    for_each_ghost_child(mesh, r, [&](std::int64_t child) { self(self, child, 0.5 * wr); });
-  };
   add(1.0, s, load_block(inertia_, s));
-  node_rows(node_rows, s, 1.0);
+  for_each_row_element(
+      mesh, s, 1.0,
+      [&](std::int64_t r, double wr, std::int64_t id) {
+        Eigen::Matrix3d k;
+        if (!edge_stiffness(mesh, st, id, edge_[2 * id], edge_[2 * id + 1], k)) return;
+        add(wr, r, k);
+        add(wr, r == element_slot(id) ? mesh.next[id] : element_slot(id), -k);
+      },
+      [&](std::int64_t r, double wr, std::int64_t id) {
+        Eigen::Matrix3d j[3];
+        std::int64_t node[3];
+        if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, j, node)) return;
+        const int i = r == node[0] ? 0 : (r == node[1] ? 1 : 2);
+        for (int q = 0; q < 3; ++q) add(wr, node[q], bending_[id] * j[i] * j[q]);
+      });
+}
+
+void ModelHessian::row_pattern(const StepContext& ctx,
+                               const std::vector<std::int64_t>& unknown_of_slot, std::int64_t s,
+                               std::vector<std::int64_t>& cols) const {
+  const ClothMesh& mesh = ctx.mesh;
+  thread_local std::vector<std::pair<std::int64_t, double>> expanded;
+  cols.clear();
+  auto add = [&](std::int64_t q) {
+    expanded.clear();
+    expand(mesh, unknown_of_slot, q, 1.0, expanded);
+    for (const auto& entry : expanded) cols.push_back(entry.first);
+  };
+  add(s);
+  for_each_row_element(
+      mesh, s, 1.0,
+      [&](std::int64_t r, double, std::int64_t id) {
+        add(r);
+        add(r == element_slot(id) ? mesh.next[id] : element_slot(id));
+      },
+      [&](std::int64_t, double, std::int64_t id) {
+        if (!(bending_[id] > 0.0)) return;
+        for (const std::int64_t q :
+             {std::int64_t{mesh.prev[id]}, element_slot(id), std::int64_t{mesh.next[id]}}) {
+          add(q);
+        }
+      });
+  std::sort(cols.begin(), cols.end());
+  cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
 }
 
 }  // namespace clothbench::kernels

@@ -57,6 +57,10 @@ namespace clothbench::kernels {
 
 class VcyclePreconditioner {
  public:
+  /// Slots a block of factor()'s check of the structure against the model (blocks run in
+  /// parallel).
+  static constexpr std::int64_t kCheckSlots = 4096;
+
   /// A level this small (nodes) is solved directly.
   static constexpr std::int64_t kCoarsestNodes = 64;
 
@@ -69,10 +73,12 @@ class VcyclePreconditioner {
   /// prolongations, the Galerkin patterns, the lines and their colours, the coarsest level's
   /// ordering) depends only on the mesh's topology and on which triples have bending stiffness
   /// in the model: it is made again only when one of them differs from the last factor() (an
-  /// AMRC event, a released pin, a triple leaving its plateau), else only the values are. A
-  /// new structure and the coarsest factorisation are made on one thread; level 0's values (by
-  /// rows, ModelHessian::sum_row), the Galerkin products (by coarse rows) and the line
-  /// factorisations run through the LoopRunner. Every thread of the region calls it.
+  /// AMRC event, a released pin, a triple leaving its plateau), else only the values are. The
+  /// check (by blocks of slots), level 0's pattern (by rows, ModelHessian::row_pattern) and
+  /// values (ModelHessian::sum_row), the Galerkin products and the placing of their columns
+  /// (by coarse rows) and the line factorisations run through the LoopRunner; the coarser
+  /// levels' nodes and prolongations, the lines and their colours, the row offsets and the
+  /// coarsest factorisation on one thread. Every thread of the region calls it.
   void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
   /// calls it; ends after a barrier.
@@ -116,10 +122,11 @@ class VcyclePreconditioner {
   /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
   /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
   /// 2.37 kB a slot measured on a 129^2 sheet).
-  /// Plus, a slot of the mesh, the structure's topology key and the unknown of every slot.
+  /// Plus, a slot of the mesh, the structure's topology key, the unknown and the coarsening's
+  /// node of every slot, and two bending bytes for each of its two element ids.
   static constexpr std::size_t kBytesPerSlot =
       (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 +
-      TopologyKey::kBytesPerSlot + 8 + 2 * 2;
+      TopologyKey::kBytesPerSlot + 8 + 4 + 2 * 2;
 
  private:
   /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
@@ -169,10 +176,17 @@ class VcyclePreconditioner {
   /// follow it) as level k + 1, with level k's prolongation; too_few when that would keep
   /// more than 4/5 of level k's nodes; coarsest when level k is small enough or nothing
   /// coarser exists.
-  Coarsening coarsen(const StepContext& ctx, int k, int s, std::vector<std::int64_t>& node_at);
-  /// One thread: level 0's nodes and pattern, the coarser levels and their prolongations;
-  /// remembers the topology they were made for.
-  void make_structure(const StepContext& ctx, const ModelHessian& hessian);
+  Coarsening coarsen(const StepContext& ctx, int k, int s, std::vector<std::int32_t>& node_at);
+  /// A new structure in three parts. One thread: level 0's nodes (the free particles), its
+  /// rows' offsets zeroed.
+  void begin_structure(const StepContext& ctx);
+  /// Every thread: level 0's pattern by rows (ModelHessian::row_pattern), counts then columns.
+  void level0_pattern(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
+  /// One thread: the coarser levels and their prolongations, the levels' vectors; remembers
+  /// the topology and bending triples they were made for.
+  void finish_structure(const StepContext& ctx);
+  /// One thread: a Galerkin accumulator per thread of the team, sized for the widest level.
+  void size_accumulators();
   /// Row `row` of level k+1's operator P^T A P (one thread per row): its sorted columns into
   /// row_cols_ when `pattern` (a new structure), else its values into the level in place.
   void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc, bool pattern);
@@ -186,10 +200,13 @@ class VcyclePreconditioner {
   std::vector<Level> levels_;
   std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
   std::vector<std::int64_t> unknown_;                ///< slot -> level 0 node, or -1
+  std::vector<std::int32_t> node_at_;  ///< per grid point: coarsen()'s node there, -1 between
   TopologyKey topology_;                             ///< the mesh the structure was made for,
   std::vector<std::uint8_t> bending_, bending_now_;  ///< its triples with bending stiffness
   std::int64_t structure_coarsest_ = -1;             ///< and its coarsest size
-  bool new_structure_ = false;  ///< written in factor()'s first single, read after it
+  bool new_structure_ = false;                       ///< written in factor()'s check, read after it
+  std::vector<std::uint8_t> changed_;  ///< per check block: the structure differs there
+  bool comparable_ = false;            ///< a structure of this extent and coarsest size exists
   std::size_t widest_ = 0;      ///< nodes of the largest coarse level (accumulators)
   std::vector<Accumulator> accumulators_;            ///< one per thread
   std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin columns before concatenation

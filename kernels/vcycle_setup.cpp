@@ -66,14 +66,16 @@ CLOTHBENCH_SCALAR_LOOPS bool band_cholesky(double* band, std::int64_t n, int w) 
 }  // namespace
 
 VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext& ctx, int k, int s,
-                                                               std::vector<std::int64_t>& node_at) {
+                                                               std::vector<std::int32_t>& node_at) {
   const ClothMesh& mesh = ctx.mesh;
   const int ni = mesh.size_i(), nj = mesh.size_j();
   Level& fine = levels_[static_cast<std::size_t>(k)];
   const std::int64_t n = static_cast<std::int64_t>(fine.i.size());
   if (n <= coarsest_nodes_ || s >= 2 * std::max(ni, nj)) return Coarsening::coarsest;
   auto grid = [&](int i, int j) { return static_cast<std::size_t>(i) * nj + j; };
-  for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = a;
+  for (std::int64_t a = 0; a < n; ++a) {
+    node_at[grid(fine.i[a], fine.j[a])] = static_cast<std::int32_t>(a);
+  }
   // The nodes of level k that node (i, j)'s value follows, with weights, or false.
   Follow list;
   auto corner = [&](int i, int j, double w) {
@@ -233,11 +235,26 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
   // Direction 0: lines of constant j along i; direction 1: constant i along j.
   const std::vector<int>& key = d == 0 ? level.j : level.i;
   const std::vector<int>& along = d == 0 ? level.i : level.j;
+  // Nodes by (key, along): stable counting sorts by `along`, then by `key` (a node is one grid
+  // point, so this is the order of a comparison sort by the pair).
+  std::vector<std::int64_t> by_along(static_cast<std::size_t>(n));
   l.order.resize(static_cast<std::size_t>(n));
-  std::iota(l.order.begin(), l.order.end(), 0);
-  std::sort(l.order.begin(), l.order.end(), [&](std::int64_t a, std::int64_t b) {
-    return key[a] != key[b] ? key[a] < key[b] : along[a] < along[b];
-  });
+  auto counting_sort = [n](const std::vector<int>& value, const std::int64_t* in,
+                           std::int64_t* out) {
+    std::vector<std::int64_t> first(1, 0);
+    for (std::int64_t e = 0; e < n; ++e) {
+      const auto v = static_cast<std::size_t>(value[in == nullptr ? e : in[e]]);
+      if (first.size() < v + 2) first.resize(v + 2, 0);
+      ++first[v + 1];
+    }
+    std::partial_sum(first.begin(), first.end(), first.begin());
+    for (std::int64_t e = 0; e < n; ++e) {
+      const std::int64_t a = in == nullptr ? e : in[e];
+      out[first[static_cast<std::size_t>(value[a])]++] = a;
+    }
+  };
+  counting_sort(along, nullptr, by_along.data());
+  counting_sort(key, by_along.data(), l.order.data());
   l.start.clear();
   l.line_of.assign(static_cast<std::size_t>(n), -1);
   l.position.assign(static_cast<std::size_t>(n), -1);
@@ -322,50 +339,76 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
   l.ok[line] = band_cholesky(band, rows, w) ? 1 : 0;
 }
 
-void VcyclePreconditioner::make_structure(const StepContext& ctx, const ModelHessian& hessian) {
+void VcyclePreconditioner::begin_structure(const StepContext& ctx) {
   const ClothMesh& mesh = ctx.mesh;
   ++structures_;
   levels_.clear();
-  std::int64_t count = 0;
-  unknown_ = free_unknowns(ctx, &count);
-  slot_of_node_.assign(static_cast<std::size_t>(count), -1);
+  // The free particles in slot order (free_unknowns' numbering), in the kept buffers: a
+  // buffer of the whole mesh made anew for every structure cost its page faults each time.
+  unknown_.assign(static_cast<std::size_t>(mesh.slot_count()), -1);
+  slot_of_node_.clear();
   Level fine;
-  fine.i.resize(static_cast<std::size_t>(count));
-  fine.j.resize(static_cast<std::size_t>(count));
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-    if (unknown_[s] < 0) continue;
-    slot_of_node_[unknown_[s]] = s;
-    fine.i[unknown_[s]] = mesh.grid_i(s);
-    fine.j[unknown_[s]] = mesh.grid_j(s);
+    if (!ctx.is_free(s)) continue;
+    unknown_[s] = static_cast<std::int64_t>(slot_of_node_.size());
+    slot_of_node_.push_back(s);
+    fine.i.push_back(mesh.grid_i(s));
+    fine.j.push_back(mesh.grid_j(s));
   }
-  // Level 0's pattern: the columns of every row (sorted, distinct) that any model on this
-  // topology can fill.
-  BlockRows& a = fine.a;
-  std::vector<std::vector<std::int64_t>> pattern(static_cast<std::size_t>(count));
-  hessian.for_each_unknown_block(
-      ctx, unknown_,
-      [&](std::int64_t row, std::int64_t col, const double*) {
-        std::vector<std::int64_t>& cols = pattern[static_cast<std::size_t>(row)];
-        if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
-      },
-      /*structure=*/true);
-  a.start.assign(1, 0);
-  a.col.clear();
-  for (std::vector<std::int64_t>& cols : pattern) {
-    std::sort(cols.begin(), cols.end());
-    a.col.insert(a.col.end(), cols.begin(), cols.end());
-    a.start.push_back(static_cast<std::int64_t>(a.col.size()));
-    std::vector<std::int64_t>().swap(cols);
-  }
-  a.value.assign(9 * a.col.size(), 0.0);
+  fine.a.start.assign(slot_of_node_.size() + 1, 0);
   levels_.push_back(std::move(fine));
+}
+
+void VcyclePreconditioner::level0_pattern(LoopRunner& run, const StepContext& ctx,
+                                          const ModelHessian& hessian) {
+  // Level 0's pattern: the columns of every row (sorted, distinct) that any model on this
+  // topology can fill, by rows - their counts, then the columns in place.
+  BlockRows& a = levels_.front().a;
+  const auto rows = static_cast<std::int64_t>(slot_of_node_.size());
+  const LoopBytes row_bytes{.read = 2 * vcycle_bytes::kOffset + ModelHessian::kRowRead,
+                            .written = vcycle_bytes::kOffset};
+  auto pass = [&](bool columns) {
+    run.for_index(rows, row_bytes, [&](std::int64_t row) {
+      thread_local std::vector<std::int64_t> cols;
+      hessian.row_pattern(ctx, unknown_, slot_of_node_[row], cols);
+      if (columns) {
+        std::copy(cols.begin(), cols.end(), a.col.begin() + a.start[row]);
+      } else {
+        a.start[row + 1] = static_cast<std::int64_t>(cols.size());
+      }
+    });
+  };
+  pass(false);
+#pragma omp single
+  {
+    const double started = omp_get_wtime();
+    std::partial_sum(a.start.begin(), a.start.end(), a.start.begin());
+    a.col.resize(static_cast<std::size_t>(a.start.back()));
+    sequential_seconds_ += omp_get_wtime() - started;
+  }
+  pass(true);
+}
+
+void VcyclePreconditioner::size_accumulators() {
+  const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
+  if (accumulators_.size() < static_cast<std::size_t>(threads)) {
+    accumulators_.resize(static_cast<std::size_t>(threads));
+    for (Accumulator& acc : accumulators_) acc.slot_of.resize(widest_, -1);
+  }
+}
+
+void VcyclePreconditioner::finish_structure(const StepContext& ctx) {
+  const ClothMesh& mesh = ctx.mesh;
+  levels_.front().a.value.assign(9 * levels_.front().a.col.size(), 0.0);
   // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
   // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
   // tried from the same level.
-  std::vector<std::int64_t> node_at(static_cast<std::size_t>(mesh.slot_count()), -1);
+  if (node_at_.size() != static_cast<std::size_t>(mesh.slot_count())) {
+    node_at_.assign(static_cast<std::size_t>(mesh.slot_count()), -1);
+  }
   int k = 0;
   for (int s = 2;; s *= 2) {
-    const Coarsening made = coarsen(ctx, k, s, node_at);
+    const Coarsening made = coarsen(ctx, k, s, node_at_);
     if (made == Coarsening::coarsest) break;
     if (made == Coarsening::level) ++k;
   }
@@ -387,21 +430,58 @@ void VcyclePreconditioner::make_structure(const StepContext& ctx, const ModelHes
 
 void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
                                   const ModelHessian& hessian) {
+  // Is the structure still this model's? Which triples bend, and the mesh's topology against
+  // the structure's, compared block by block of slots in parallel.
+  const ClothMesh& mesh = ctx.mesh;
+  const std::int64_t check_blocks = (mesh.slot_count() + kCheckSlots - 1) / kCheckSlots;
 #pragma omp single
   {
     const double started = omp_get_wtime();
     ++factorisations_;
-    hessian.bending_pattern(bending_now_);
-    new_structure_ = !topology_.matches(ctx.mesh) || structure_coarsest_ != coarsest_nodes_ ||
-                     bending_now_ != bending_;
-    if (new_structure_) make_structure(ctx, hessian);
-    const int threads = std::max(omp_get_num_threads(), omp_get_max_threads());
-    if (accumulators_.size() < static_cast<std::size_t>(threads)) {
-      accumulators_.resize(static_cast<std::size_t>(threads));
-      for (Accumulator& acc : accumulators_) acc.slot_of.resize(widest_, -1);
+    bending_now_.resize(static_cast<std::size_t>(hessian.element_ids()));
+    changed_.assign(static_cast<std::size_t>(check_blocks), 0);
+    comparable_ = topology_.same_extent(mesh) && structure_coarsest_ == coarsest_nodes_ &&
+                  bending_.size() == bending_now_.size();
+    sequential_seconds_ += omp_get_wtime() - started;
+  }
+  // Per slot: its flag, and per element id its two active flags, the model's bending
+  // coefficient and the structure's byte read, the new byte written (both sides of the
+  // topology's comparison read).
+  const LoopBytes check_bytes{
+      .read = kCheckSlots * (2 * TopologyKey::kBytesPerSlot + 2 * (bytes::kDouble + 1.0)),
+      .written = kCheckSlots * 2.0 + 1.0};
+  run.for_index(check_blocks, check_bytes, [&](std::int64_t block) {
+    const std::int64_t begin = block * kCheckSlots;
+    const std::int64_t end = std::min(mesh.slot_count(), begin + kCheckSlots);
+    bool changed = false;
+    for (std::int64_t id = 2 * begin; id < 2 * end; ++id) {
+      const std::uint8_t bends = hessian.bends(id) ? 1 : 0;
+      bending_now_[id] = bends;
+      changed = changed || (comparable_ && bending_[id] != bends);
+    }
+    changed_[block] = changed || !comparable_ || !topology_.matches_slots(mesh, begin, end);
+  });
+#pragma omp single
+  {
+    const double started = omp_get_wtime();
+    new_structure_ = std::find(changed_.begin(), changed_.end(), 1) != changed_.end();
+    if (new_structure_) {
+      begin_structure(ctx);
+    } else {
+      size_accumulators();
     }
     sequential_seconds_ += omp_get_wtime() - started;
   }  // the single's barrier publishes the levels and new_structure_
+  if (new_structure_) {
+    level0_pattern(run, ctx, hessian);
+#pragma omp single
+    {
+      const double started = omp_get_wtime();
+      finish_structure(ctx);
+      size_accumulators();
+      sequential_seconds_ += omp_get_wtime() - started;
+    }
+  }
   const bool pattern = new_structure_;
   // Level 0's values, row by row (ModelHessian::sum_row).
   {
@@ -437,24 +517,31 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
       // A new structure: the rows' columns first, then the values in place (no copy of the
       // values outside the level: at 1001^2 that copy was a quarter of the peak memory).
       rows_of(true);
+      BlockRows& a = levels_[k + 1].a;
 #pragma omp single
       {
         const double started = omp_get_wtime();
-        BlockRows& a = levels_[k + 1].a;
-        a.start.assign(1, 0);
-        a.col.clear();
-        std::size_t blocks = 0;
-        for (const auto& cols : row_cols_) blocks += cols.size();
-        a.col.reserve(blocks);
-        for (std::vector<std::int64_t>& cols : row_cols_) {
-          a.col.insert(a.col.end(), cols.begin(), cols.end());
-          a.start.push_back(static_cast<std::int64_t>(a.col.size()));
-          std::vector<std::int64_t>().swap(cols);
+        a.start.assign(static_cast<std::size_t>(rows) + 1, 0);
+        for (std::int64_t row = 0; row < rows; ++row) {
+          a.start[row + 1] = a.start[row] + static_cast<std::int64_t>(row_cols_[row].size());
         }
-        std::vector<std::vector<std::int64_t>>().swap(row_cols_);
-        a.value.assign(9 * blocks, 0.0);
+        a.col.resize(static_cast<std::size_t>(a.start.back()));
+        a.value.resize(9 * a.col.size());
         sequential_seconds_ += omp_get_wtime() - started;
       }
+      // Each row's columns into place (the row's values are written by the pass below).
+      run.for_index(rows,
+                    {.read = vcycle_bytes::per_index(
+                         vcycle_bytes::kOffset * static_cast<double>(a.col.size()),
+                         static_cast<std::size_t>(rows)),
+                     .written = vcycle_bytes::per_index(
+                         vcycle_bytes::kOffset * static_cast<double>(a.col.size()),
+                         static_cast<std::size_t>(rows))},
+                    [&](std::int64_t row) {
+                      std::vector<std::int64_t>& cols = row_cols_[row];
+                      std::copy(cols.begin(), cols.end(), a.col.begin() + a.start[row]);
+                      std::vector<std::int64_t>().swap(cols);
+                    });
     }
     rows_of(false);
   }

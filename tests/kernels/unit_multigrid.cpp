@@ -442,6 +442,74 @@ TEST(Vcycle, TheHierarchyIsMadeOncePerTopologyAndMatchesOneMadeAnew) {
   EXPECT_GT(v.sequential_seconds(), 0.0);
 }
 
+TEST(Vcycle, Level0PatternByRowsIsTheModelsStructurePattern) {
+  // The V-cycle makes level 0's pattern row by row (ModelHessian::row_pattern, in parallel);
+  // it must be the pattern the model's blocks have element by element
+  // (for_each_unknown_block's structure), on a graded mesh with ghosts and pins where some
+  // triples bend and others do not.
+  for (unsigned seed : {8u, 9u}) {
+    Fixture f(graded_cloth(true, Preconditioner::vcycle));
+    graded_vcycle(f, seed);
+    std::vector<double>& moment = f.sim.state().triple_moment;
+    for (std::size_t id = 0; id < moment.size(); id += 3) moment[id] = 0.0;
+    assemble_afresh(f);
+    const kernels::ModelHessian& h = *f.objective.model_hessian();
+    const kernels::ClothMesh& mesh = f.sim.mesh();
+    int bending = 0, straight = 0;
+    for (std::int64_t id = 0; id < h.element_ids(); ++id) {
+      if (mesh.triple_active[id] != 0) ++(h.bends(id) ? bending : straight);
+    }
+    ASSERT_GT(bending, 0) << "seed " << seed;
+    ASSERT_GT(straight, 0) << "seed " << seed;
+    std::int64_t unknowns = 0;
+    const std::vector<std::int64_t> unknown = kernels::free_unknowns(f.ctx, &unknowns);
+    std::vector<std::vector<std::int64_t>> expected(static_cast<std::size_t>(unknowns));
+    h.for_each_unknown_block(
+        f.ctx, unknown,
+        [&](std::int64_t row, std::int64_t col, const double*) {
+          expected[static_cast<std::size_t>(row)].push_back(col);
+        },
+        /*structure=*/true);
+    std::vector<std::int64_t> cols;
+    for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
+      if (unknown[s] < 0) continue;
+      std::vector<std::int64_t>& want = expected[static_cast<std::size_t>(unknown[s])];
+      std::sort(want.begin(), want.end());
+      want.erase(std::unique(want.begin(), want.end()), want.end());
+      h.row_pattern(f.ctx, unknown, s, cols);
+      EXPECT_EQ(cols, want) << "seed " << seed << ", slot " << s;
+    }
+    EXPECT_GT(mesh.ghost_count(), 0);
+  }
+}
+
+TEST(Vcycle, ATripleThatStopsBendingInTheLastCheckBlockMakesANewStructure) {
+  // factor() compares the model and the mesh with the structure's by blocks of slots in
+  // parallel: a change in a later block than the first must be seen as well as one in it.
+  Fixture f(stretched_sheet(91, Preconditioner::vcycle));  // 8,281 slots: three blocks
+  load_stretched(f);
+  assemble_afresh(f);
+  const kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  const kernels::ModelHessian& h = *f.objective.model_hessian();
+  const kernels::ClothMesh& mesh = f.sim.mesh();
+  ASSERT_GT(mesh.slot_count(), 2 * kernels::VcyclePreconditioner::kCheckSlots);
+  EXPECT_EQ(v.structures(), 1);
+  assemble_afresh(f);
+  EXPECT_EQ(v.structures(), 1);  // nothing changed: values only
+  std::int64_t last = -1;
+  for (std::int64_t id = h.element_ids() - 1; id >= 0 && last < 0; --id) {
+    if (mesh.triple_active[id] != 0 && h.bends(id)) last = id;
+  }
+  ASSERT_GE(last / 2, 2 * kernels::VcyclePreconditioner::kCheckSlots);
+  // Without its previous moment the triple follows the unloading curve, zero below its
+  // onset: no bending stiffness.
+  f.sim.state().triple_moment[static_cast<std::size_t>(last)] = 0.0;
+  assemble_afresh(f);
+  EXPECT_FALSE(h.bends(last));
+  EXPECT_EQ(v.structures(), 2);
+  EXPECT_EQ(v.failures(), 0);
+}
+
 TEST(Vcycle, MemoryEstimateCoversWhatTheCycleHoldsOnAUniformSheet) {
   // After the step's first factorisation on a 129^2 sheet (the finest level, every line).
   Fixture f(stretched_sheet(129, Preconditioner::vcycle));
