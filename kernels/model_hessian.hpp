@@ -117,11 +117,11 @@ class ModelHessian {
   /// The columns of free particle s's row in every model on this mesh whose triples with
   /// bending stiffness are this one's: for_each_unknown_block's `structure` pattern by rows
   /// (every active edge at s or at a ghost hanging on it, recursively, and every such triple
-  /// with bending stiffness, each node expanded to its unknowns), sorted and distinct, into
-  /// `cols`. The same traversal as sum_row, whose `cols` it makes; one row per call, so the
-  /// V-cycle's level 0 pattern is made by rows in parallel.
-  void row_pattern(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
-                   std::int64_t s, std::vector<std::int64_t>& cols) const;
+  /// with bending stiffness, each node expanded to its unknowns), sorted and distinct,
+  /// appended to `cols`; returns how many. The same traversal as sum_row, whose `cols` it
+  /// makes; one row per call, so the V-cycle's level 0 pattern is made by rows in parallel.
+  std::int64_t row_pattern(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
+                           std::int64_t s, std::vector<std::int64_t>& cols) const;
 
   /// Whether triple id has bending stiffness in the assembled model (adds blocks besides its
   /// edges'; the V-cycle's structure depends on which triples do).

@@ -35,6 +35,19 @@ void expand(const ClothMesh& mesh, const std::vector<std::int64_t>& unknown_of_s
   if (unknown_of_slot[node] >= 0) out.emplace_back(unknown_of_slot[node], weight);
 }
 
+/// The unknowns a node's value follows (expand() without the weights), appended to `out`.
+void expand_unknowns(const ClothMesh& mesh, const std::vector<std::int64_t>& unknown_of_slot,
+                     std::int64_t node, std::vector<std::int64_t>& out) {
+  const int d = ghost_direction(mesh.flags[node]);
+  if (d >= 0) {
+    const std::int64_t id = element_id(node, d);
+    expand_unknowns(mesh, unknown_of_slot, mesh.prev[id], out);
+    expand_unknowns(mesh, unknown_of_slot, mesh.next[id], out);
+    return;
+  }
+  if (unknown_of_slot[node] >= 0) out.push_back(unknown_of_slot[node]);
+}
+
 /// K_e = alpha u u^T + beta (I - u u^T) of edge id at the current positions; false for an
 /// edge of zero length.
 bool edge_stiffness(const ClothMesh& mesh, const ClothState& st, std::int64_t id, double alpha,
@@ -214,17 +227,12 @@ void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_
       });
 }
 
-void ModelHessian::row_pattern(const StepContext& ctx,
-                               const std::vector<std::int64_t>& unknown_of_slot, std::int64_t s,
-                               std::vector<std::int64_t>& cols) const {
+std::int64_t ModelHessian::row_pattern(const StepContext& ctx,
+                                       const std::vector<std::int64_t>& unknown_of_slot,
+                                       std::int64_t s, std::vector<std::int64_t>& cols) const {
   const ClothMesh& mesh = ctx.mesh;
-  thread_local std::vector<std::pair<std::int64_t, double>> expanded;
-  cols.clear();
-  auto add = [&](std::int64_t q) {
-    expanded.clear();
-    expand(mesh, unknown_of_slot, q, 1.0, expanded);
-    for (const auto& entry : expanded) cols.push_back(entry.first);
-  };
+  const std::size_t begin = cols.size();
+  auto add = [&](std::int64_t q) { expand_unknowns(mesh, unknown_of_slot, q, cols); };
   add(s);
   for_each_row_element(
       mesh, s, 1.0,
@@ -234,13 +242,14 @@ void ModelHessian::row_pattern(const StepContext& ctx,
       },
       [&](std::int64_t, double, std::int64_t id) {
         if (!(bending_[id] > 0.0)) return;
-        for (const std::int64_t q :
-             {std::int64_t{mesh.prev[id]}, element_slot(id), std::int64_t{mesh.next[id]}}) {
-          add(q);
-        }
+        add(mesh.prev[id]);
+        add(element_slot(id));
+        add(mesh.next[id]);
       });
-  std::sort(cols.begin(), cols.end());
-  cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
+  const auto first = cols.begin() + static_cast<std::ptrdiff_t>(begin);
+  std::sort(first, cols.end());
+  cols.erase(std::unique(first, cols.end()), cols.end());
+  return static_cast<std::int64_t>(cols.size() - begin);
 }
 
 }  // namespace clothbench::kernels

@@ -76,6 +76,22 @@ LoopBytes line_factor(const Level& level, int d) {
   return {.read = per_index(read, lines), .written = per_index(written, lines)};
 }
 
+/// Per line of direction d, its couplings (a new structure): the operator's columns of its
+/// nodes with each column's line and position, the node order and the line's range read; the
+/// line's width and the lines before it it couples to written (about one a node).
+template <class Level>
+LoopBytes line_couplings(const Level& level, int d) {
+  const auto& l = level.lines[d];
+  const std::size_t lines = l.width.size();
+  const double read = kOffset * static_cast<double>(level.a.start.size()) +
+                      3 * kOffset * static_cast<double>(level.a.col.size()) +
+                      2 * kOffset * static_cast<double>(l.order.size()) +
+                      2 * kOffset * static_cast<double>(lines);
+  const double written =
+      bytes::kFlag * static_cast<double>(lines) + kOffset * static_cast<double>(l.order.size());
+  return {.read = per_index(read, lines), .written = per_index(written, lines)};
+}
+
 /// Per coarse row of P^T A P: the fine operator, R and P once each read; the row's blocks
 /// written when `values` (a new structure's first pass makes the columns only).
 template <class Level>

@@ -154,6 +154,8 @@ class VcyclePreconditioner {
     std::vector<double> band;                ///< lower band of each line's Cholesky factor
     std::vector<std::int64_t> line_of;       ///< per node: its line
     std::vector<std::int64_t> position;      ///< per node: its position on the line
+    /// While a structure is made: per line, the lines before it that it couples to.
+    std::vector<std::vector<std::int64_t>> below;
   };
   struct Level {
     std::vector<int> i, j;  ///< grid coordinates of each node
@@ -190,8 +192,13 @@ class VcyclePreconditioner {
   /// Row `row` of level k+1's operator P^T A P (one thread per row): its sorted columns into
   /// row_cols_ when `pattern` (a new structure), else its values into the level in place.
   void galerkin_row(std::size_t k, std::int64_t row, Accumulator& acc, bool pattern);
-  /// One thread: lines of a level along direction d, their colours and band widths.
-  void build_lines(Level& level, int d);
+  /// The lines of a level along direction d in three parts. One thread: the nodes' order by
+  /// line and position, the line ranges.
+  void order_lines(Level& level, int d);
+  /// One line (lines in parallel): its band width and the lines before it it couples to.
+  void couple_line(Level& level, int d, std::int64_t line);
+  /// One thread: greedy colours in line order, the band factor's offsets and storage.
+  void colour_lines(Level& level, int d);
   void factor_line(Level& level, int d, std::int64_t line);
   void update_line(Level& level, int d, std::int64_t line);
   void smooth(LoopRunner& run, Level& level, bool forward);
@@ -210,6 +217,14 @@ class VcyclePreconditioner {
   std::size_t widest_ = 0;      ///< nodes of the largest coarse level (accumulators)
   std::vector<Accumulator> accumulators_;            ///< one per thread
   std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin columns before concatenation
+  /// Level 0's pattern while it is made: per thread the columns of the rows it made, per row
+  /// where they are.
+  struct RowSource {
+    int thread;
+    std::int64_t at;
+  };
+  std::vector<std::vector<std::int64_t>> arenas_;
+  std::vector<RowSource> row_source_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> direct_;
   bool direct_ready_ = false;
   Eigen::VectorXd coarse_b_, coarse_x_;

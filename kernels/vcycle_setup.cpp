@@ -229,7 +229,7 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
   for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
 }
 
-void VcyclePreconditioner::build_lines(Level& level, int d) {
+void VcyclePreconditioner::order_lines(Level& level, int d) {
   Lines& l = level.lines[d];
   const std::int64_t n = static_cast<std::int64_t>(level.i.size());
   // Direction 0: lines of constant j along i; direction 1: constant i along j.
@@ -270,32 +270,47 @@ void VcyclePreconditioner::build_lines(Level& level, int d) {
   }
   const std::int64_t lines = static_cast<std::int64_t>(l.start.size());
   l.start.push_back(n);
-  // Widths and couplings between lines; greedy colours in line order.
   l.width.assign(static_cast<std::size_t>(lines), 0);
+  l.below.assign(static_cast<std::size_t>(lines), {});
+}
+
+void VcyclePreconditioner::couple_line(Level& level, int d, std::int64_t line) {
+  Lines& l = level.lines[d];
+  std::vector<std::int64_t>& below = l.below[line];
+  std::int64_t width = 2;
+  for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
+    const std::int64_t a = l.order[e];
+    for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
+      const std::int64_t b = level.a.col[blk];
+      const std::int64_t other = l.line_of[b];
+      if (other == line) {
+        width = std::max(width, 3 * std::abs(l.position[a] - l.position[b]) + 2);
+      } else if (other < line) {
+        below.push_back(other);
+      }
+    }
+  }
+  std::sort(below.begin(), below.end());
+  below.erase(std::unique(below.begin(), below.end()), below.end());
+  l.width[line] = static_cast<int>(width);
+}
+
+void VcyclePreconditioner::colour_lines(Level& level, int d) {
+  Lines& l = level.lines[d];
+  const std::int64_t lines = static_cast<std::int64_t>(l.width.size());
+  // Greedy colours in line order: the first colour no coupled line before it has.
   std::vector<int> colour(static_cast<std::size_t>(lines), -1);
   std::vector<char> used;
   int colours = 0;
   for (std::int64_t line = 0; line < lines; ++line) {
     used.assign(static_cast<std::size_t>(colours) + 1, 0);
-    std::int64_t width = 2;
-    for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
-      const std::int64_t a = l.order[e];
-      for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {
-        const std::int64_t b = level.a.col[blk];
-        const std::int64_t other = l.line_of[b];
-        if (other == line) {
-          width = std::max(width, 3 * std::abs(l.position[a] - l.position[b]) + 2);
-        } else if (colour[other] >= 0) {
-          used[colour[other]] = 1;
-        }
-      }
-    }
+    for (const std::int64_t other : l.below[line]) used[colour[other]] = 1;
     int pick = 0;
     while (pick < colours && used[pick] != 0) ++pick;
     colour[line] = pick;
     colours = std::max(colours, pick + 1);
-    l.width[line] = static_cast<int>(width);
   }
+  std::vector<std::vector<std::int64_t>>().swap(l.below);
   l.colour_start.assign(static_cast<std::size_t>(colours) + 1, 0);
   for (std::int64_t line = 0; line < lines; ++line) ++l.colour_start[colour[line] + 1];
   for (int c = 0; c < colours; ++c) l.colour_start[c + 1] += l.colour_start[c];
@@ -357,28 +372,25 @@ void VcyclePreconditioner::begin_structure(const StepContext& ctx) {
   }
   fine.a.start.assign(slot_of_node_.size() + 1, 0);
   levels_.push_back(std::move(fine));
+  row_source_.resize(slot_of_node_.size());
+  arenas_.resize(static_cast<std::size_t>(std::max(omp_get_num_threads(), omp_get_max_threads())));
 }
 
 void VcyclePreconditioner::level0_pattern(LoopRunner& run, const StepContext& ctx,
                                           const ModelHessian& hessian) {
   // Level 0's pattern: the columns of every row (sorted, distinct) that any model on this
-  // topology can fill, by rows - their counts, then the columns in place.
+  // topology can fill, by rows into the thread's arena, then, with the rows' offsets known,
+  // into place.
   BlockRows& a = levels_.front().a;
   const auto rows = static_cast<std::int64_t>(slot_of_node_.size());
   const LoopBytes row_bytes{.read = 2 * vcycle_bytes::kOffset + ModelHessian::kRowRead,
-                            .written = vcycle_bytes::kOffset};
-  auto pass = [&](bool columns) {
-    run.for_index(rows, row_bytes, [&](std::int64_t row) {
-      thread_local std::vector<std::int64_t> cols;
-      hessian.row_pattern(ctx, unknown_, slot_of_node_[row], cols);
-      if (columns) {
-        std::copy(cols.begin(), cols.end(), a.col.begin() + a.start[row]);
-      } else {
-        a.start[row + 1] = static_cast<std::int64_t>(cols.size());
-      }
-    });
-  };
-  pass(false);
+                            .written = 3 * vcycle_bytes::kOffset};
+  run.for_index(rows, row_bytes, [&](std::int64_t row) {
+    const int thread = omp_get_thread_num();
+    std::vector<std::int64_t>& arena = arenas_[static_cast<std::size_t>(thread)];
+    row_source_[row] = {thread, static_cast<std::int64_t>(arena.size())};
+    a.start[row + 1] = hessian.row_pattern(ctx, unknown_, slot_of_node_[row], arena);
+  });
 #pragma omp single
   {
     const double started = omp_get_wtime();
@@ -386,7 +398,14 @@ void VcyclePreconditioner::level0_pattern(LoopRunner& run, const StepContext& ct
     a.col.resize(static_cast<std::size_t>(a.start.back()));
     sequential_seconds_ += omp_get_wtime() - started;
   }
-  pass(true);
+  const double per_row = vcycle_bytes::per_index(
+      vcycle_bytes::kOffset * static_cast<double>(a.col.size()), static_cast<std::size_t>(rows));
+  run.for_index(rows, {.read = per_row + 3 * vcycle_bytes::kOffset, .written = per_row},
+                [&](std::int64_t row) {
+                  const RowSource& from = row_source_[row];
+                  std::copy_n(arenas_[static_cast<std::size_t>(from.thread)].data() + from.at,
+                              a.start[row + 1] - a.start[row], a.col.data() + a.start[row]);
+                });
 }
 
 void VcyclePreconditioner::size_accumulators() {
@@ -423,6 +442,7 @@ void VcyclePreconditioner::finish_structure(const StepContext& ctx) {
     if (l > 0) widest_ = std::max(widest_, level.i.size());
   }
   accumulators_.clear();
+  for (std::vector<std::int64_t>& arena : arenas_) std::vector<std::int64_t>().swap(arena);
   topology_.take(mesh);
   bending_.swap(bending_now_);
   structure_coarsest_ = coarsest_nodes_;
@@ -545,12 +565,32 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
     }
     rows_of(false);
   }
+  if (pattern) {
+    // The lines of every smoothed level: their nodes in order on one thread, then each line's
+    // width and the lines before it that it couples to, by lines (colour_lines below).
+#pragma omp single
+    {
+      const double started = omp_get_wtime();
+      for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+        for (int d = 0; d < 2; ++d) order_lines(levels_[k], d);
+      }
+      sequential_seconds_ += omp_get_wtime() - started;
+    }
+    for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
+      for (int d = 0; d < 2; ++d) {
+        Level& level = levels_[k];
+        run.for_index(static_cast<std::int64_t>(level.lines[d].width.size()),
+                      vcycle_bytes::line_couplings(level, d),
+                      [&](std::int64_t line) { couple_line(level, d, line); });
+      }
+    }
+  }
 #pragma omp single
   {
     const double started = omp_get_wtime();
     if (pattern) {
       for (std::size_t k = 0; k + 1 < levels_.size(); ++k) {
-        for (int d = 0; d < 2; ++d) build_lines(levels_[k], d);
+        for (int d = 0; d < 2; ++d) colour_lines(levels_[k], d);
       }
     }
     direct_ready_ = false;
