@@ -89,10 +89,11 @@ class ModelHessian {
   /// model before duplicates are summed.
   using BlockVisitor = std::function<void(std::int64_t, std::int64_t, const double*)>;
   /// The blocks matrix() sums, in the same order (inertia and contact per particle, then edge
-  /// and triple blocks by element id), each node expanded to its unknowns (also the V-cycle's
-  /// level 0). `structure`: every block of every active edge (also one of zero length) and of
-  /// every triple with bending stiffness, each as a zero block: the pattern of every model on
-  /// this mesh whose triples with bending stiffness are these (bending_pattern). Sequential.
+  /// and triple blocks by element id), each node expanded to its unknowns. `structure`: every
+  /// block of every active edge (also one of zero length) and of every triple with bending
+  /// stiffness (bends()), each as a zero block: the pattern of every model on this mesh whose
+  /// triples with bending stiffness are these, element by element - the reference the
+  /// V-cycle's pattern by rows (row_pattern) is tested against. Sequential.
   void for_each_unknown_block(const StepContext& ctx,
                               const std::vector<std::int64_t>& unknown_of_slot,
                               const BlockVisitor& visit, bool structure = false) const;

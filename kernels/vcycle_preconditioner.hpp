@@ -182,7 +182,8 @@ class VcyclePreconditioner {
   /// A new structure in three parts. One thread: level 0's nodes (the free particles), its
   /// rows' offsets zeroed.
   void begin_structure(const StepContext& ctx);
-  /// Every thread: level 0's pattern by rows (ModelHessian::row_pattern), counts then columns.
+  /// Every thread: level 0's pattern by rows (ModelHessian::row_pattern), each row's columns
+  /// into its thread's arena, then, with the row offsets summed on one thread, into place.
   void level0_pattern(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// One thread: the coarser levels and their prolongations, the levels' vectors; remembers
   /// the topology and bending triples they were made for.
