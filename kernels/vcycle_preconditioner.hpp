@@ -164,6 +164,8 @@ class VcyclePreconditioner {
     Weights r;              ///< per node of the next level: this level's nodes (P^T)
     Lines lines[2];
     std::vector<double> x, b, res, scratch;  ///< 3 per node each
+    /// Empties every vector and keeps its capacity (a level taken from the spares).
+    void clear();
   };
   /// Per thread: the Galerkin product's row accumulator.
   struct Accumulator {
@@ -206,6 +208,13 @@ class VcyclePreconditioner {
   void cycle(LoopRunner& run, std::size_t k);
 
   std::vector<Level> levels_;
+  /// The last structure's levels, emptied with their capacity kept, handed out in level order
+  /// to the next structure: buffers made anew for every structure cost their page faults
+  /// each time (about 40 % of the set-up's time on paper/box-257, kernels/MODEL-NOTES.md).
+  std::vector<Level> spare_levels_;
+  /// An empty level: the next spare one (level k of the last structure when level k is
+  /// made), or a new one.
+  Level take_level();
   std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
   std::vector<std::int64_t> unknown_;                ///< slot -> level 0 node, or -1
   std::vector<std::int32_t> node_at_;  ///< per grid point: coarsen()'s node there, -1 between

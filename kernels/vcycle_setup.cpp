@@ -97,7 +97,7 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext
     return true;
   };
   std::vector<std::int64_t> coarse(static_cast<std::size_t>(n), -1);
-  Level next;
+  Level next = take_level();
   for (std::int64_t a = 0; a < n; ++a) {
     const bool lattice = on_lattice(fine.i[a], s, ni) && on_lattice(fine.j[a], s, nj);
     if (lattice || !corners(a)) {
@@ -110,13 +110,11 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext
   auto clear = [&] {
     for (std::int64_t a = 0; a < n; ++a) node_at[grid(fine.i[a], fine.j[a])] = -1;
   };
-  if (m == 0) {
+  if (m == 0 || 5 * m > 4 * n) {  // none: the coarsest; too few: the next lattice from here
     clear();
-    return Coarsening::coarsest;
-  }
-  if (5 * m > 4 * n) {  // try the next lattice from this level
-    clear();
-    return Coarsening::too_few;
+    next.clear();
+    spare_levels_.push_back(std::move(next));
+    return m == 0 ? Coarsening::coarsest : Coarsening::too_few;
   }
   // P by fine node (the corners of an interpolated node are lattice nodes, hence coarse
   // nodes), then P^T by coarse node in fine node order.
@@ -204,15 +202,47 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
   for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
 }
 
+void VcyclePreconditioner::Level::clear() {
+  for (std::vector<int>* v : {&i, &j}) v->clear();
+  for (std::vector<std::int64_t>* v : {&a.start, &a.col, &p.start, &p.node, &r.start, &r.node}) {
+    v->clear();
+  }
+  for (std::vector<double>* v : {&a.value, &p.weight, &r.weight, &x, &b, &res, &scratch}) {
+    v->clear();
+  }
+  for (Lines& l : lines) {
+    for (std::vector<std::int64_t>* v : {&l.order, &l.start, &l.by_colour, &l.colour_start,
+                                         &l.band_start, &l.line_of, &l.position}) {
+      v->clear();
+    }
+    l.width.clear();
+    l.ok.clear();
+    l.band.clear();
+    l.below.clear();
+  }
+}
+
+VcyclePreconditioner::Level VcyclePreconditioner::take_level() {
+  if (spare_levels_.empty()) return {};
+  Level level = std::move(spare_levels_.back());
+  spare_levels_.pop_back();
+  level.clear();
+  return level;
+}
+
 void VcyclePreconditioner::begin_structure(const StepContext& ctx) {
   const ClothMesh& mesh = ctx.mesh;
   ++structures_;
+  // The levels become spares, the finest last: take_level hands out level 0's first.
+  for (auto level = levels_.rbegin(); level != levels_.rend(); ++level) {
+    spare_levels_.push_back(std::move(*level));
+  }
   levels_.clear();
   // The free particles in slot order (free_unknowns' numbering), in the kept buffers: a
   // buffer of the whole mesh made anew for every structure cost its page faults each time.
   unknown_.assign(static_cast<std::size_t>(mesh.slot_count()), -1);
   slot_of_node_.clear();
-  Level fine;
+  Level fine = take_level();
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
     if (!ctx.is_free(s)) continue;
     unknown_[s] = static_cast<std::int64_t>(slot_of_node_.size());
@@ -292,6 +322,7 @@ void VcyclePreconditioner::finish_structure(const StepContext& ctx) {
     if (l > 0) widest_ = std::max(widest_, level.i.size());
   }
   accumulators_.clear();
+  spare_levels_.clear();  // levels this structure does not have
   for (std::vector<std::int64_t>& arena : arenas_) std::vector<std::int64_t>().swap(arena);
   topology_.take(mesh);
   bending_.swap(bending_now_);
