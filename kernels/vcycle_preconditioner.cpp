@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <type_traits>
 #include <utility>
 
 #include "kernels/vcycle_loop_bytes.hpp"
@@ -215,24 +216,9 @@ std::size_t VcyclePreconditioner::memory_bytes() const {
     bytes += cols.capacity() * sizeof(std::int64_t);
   }
   for (const Level& level : levels_) {
-    bytes += (level.a.start.capacity() + level.a.col.capacity()) * sizeof(std::int64_t) +
-             level.a.value.capacity() * sizeof(double);
-    for (const Weights* w : {&level.p, &level.r}) {
-      bytes += (w->start.capacity() + w->node.capacity()) * sizeof(std::int64_t) +
-               w->weight.capacity() * sizeof(double);
-    }
-    bytes += (level.i.capacity() + level.j.capacity()) * sizeof(int) +
-             (level.x.capacity() + level.b.capacity() + level.res.capacity() +
-              level.scratch.capacity()) *
-                 sizeof(double);
-    for (const Lines& l : level.lines) {
-      bytes += l.band.capacity() * sizeof(double) +
-               (l.order.capacity() + l.start.capacity() + l.by_colour.capacity() +
-                l.colour_start.capacity() + l.band_start.capacity() + l.line_of.capacity() +
-                l.position.capacity()) *
-                   sizeof(std::int64_t) +
-               l.width.capacity() * sizeof(int) + l.ok.capacity();
-    }
+    Level::for_each_vector(level, [&bytes](const auto& v) {
+      bytes += v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type);
+    });
   }
   if (direct_ready_) {
     const auto& l = direct_.matrixL().nestedExpression();

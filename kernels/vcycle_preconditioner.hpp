@@ -164,6 +164,38 @@ class VcyclePreconditioner {
     Weights r;              ///< per node of the next level: this level's nodes (P^T)
     Lines lines[2];
     std::vector<double> x, b, res, scratch;  ///< 3 per node each
+    /// Calls f on each of the level's vectors (Lines::below itself, not its inner vectors):
+    /// the one list clear() and memory_bytes() both go through, so neither misses a member.
+    template <class Self, class F>
+    static void for_each_vector(Self& level, F&& f) {
+      f(level.i);
+      f(level.j);
+      f(level.a.start);
+      f(level.a.col);
+      f(level.a.value);
+      for (auto* w : {&level.p, &level.r}) {
+        f(w->start);
+        f(w->node);
+        f(w->weight);
+      }
+      for (auto& l : level.lines) {
+        f(l.order);
+        f(l.start);
+        f(l.by_colour);
+        f(l.colour_start);
+        f(l.band_start);
+        f(l.width);
+        f(l.ok);
+        f(l.band);
+        f(l.line_of);
+        f(l.position);
+        f(l.below);
+      }
+      f(level.x);
+      f(level.b);
+      f(level.res);
+      f(level.scratch);
+    }
     /// Empties every vector and keeps its capacity (a level taken from the spares).
     void clear();
   };

@@ -112,8 +112,7 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext
   };
   if (m == 0 || 5 * m > 4 * n) {  // none: the coarsest; too few: the next lattice from here
     clear();
-    next.clear();
-    spare_levels_.push_back(std::move(next));
+    spare_levels_.push_back(std::move(next));  // take_level empties it
     return m == 0 ? Coarsening::coarsest : Coarsening::too_few;
   }
   // P by fine node (the corners of an interpolated node are lattice nodes, hence coarse
@@ -203,23 +202,7 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
 }
 
 void VcyclePreconditioner::Level::clear() {
-  for (std::vector<int>* v : {&i, &j}) v->clear();
-  for (std::vector<std::int64_t>* v : {&a.start, &a.col, &p.start, &p.node, &r.start, &r.node}) {
-    v->clear();
-  }
-  for (std::vector<double>* v : {&a.value, &p.weight, &r.weight, &x, &b, &res, &scratch}) {
-    v->clear();
-  }
-  for (Lines& l : lines) {
-    for (std::vector<std::int64_t>* v : {&l.order, &l.start, &l.by_colour, &l.colour_start,
-                                         &l.band_start, &l.line_of, &l.position}) {
-      v->clear();
-    }
-    l.width.clear();
-    l.ok.clear();
-    l.band.clear();
-    l.below.clear();
-  }
+  for_each_vector(*this, [](auto& v) { v.clear(); });
 }
 
 VcyclePreconditioner::Level VcyclePreconditioner::take_level() {
