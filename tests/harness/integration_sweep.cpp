@@ -147,8 +147,10 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
 
   const Outcome md = run("table " + quote((out / "sweep.json").string()));
   ASSERT_EQ(md.exit_code, 0) << md.output;
+  // The Time cell carries a dagger when the instrumented run's overheads add up to more than
+  // the timed runs' median, which a loaded machine (ctest -j beside a build) can bring about.
   EXPECT_TRUE(std::regex_search(
-      md.output, std::regex(R"(\n\| 2 \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.]+ \| [0-9.e-]+ \| )"
+      md.output, std::regex(R"(\n\| 2 \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.e]+ \| [-0-9.]+ \| [0-9.e-]+( †)? \| )"
                             R"([0-9.e-]+-[0-9.e-]+ \| (\d+\.\d\d|-) \| (\d+\.\d\d|-) \| (\d+\.\d\d|-) \| )"
                             R"(PASSED \| (clean|DISTURBED \(\d+ of \d+ runs\)) \|\n)")))
       << md.output;
