@@ -14,7 +14,6 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,39 +31,11 @@ using clothbench::kernels::Formulation;
 using clothbench::kernels::Simulation;
 using clothbench::kernels::SimulationConfig;
 
-/// The paper's box scene at n x n particles, draped for a few steps so elements are in every
-/// regime of their bands (a flat cloth would take the cheap branches only).
-/// The element kernel drapes too (its state differs from the reference's in the last bits).
-/// Google Benchmark calls a benchmark's function once per trial of its iteration count and
-/// once per repetition; draping is minutes at 301^2 and 1001^2, so the last draped scene is
-/// kept and handed out again while n, formulation and kernel stay the same (one at a time: the
-/// 1001^2 scene holds hundreds of MB). Every repetition then times the same state.
-Simulation& draped_box(int n, Formulation formulation, ElementKernel kernel) {
-  struct Cached {
-    int n = 0;
-    Formulation formulation{};
-    ElementKernel kernel{};
-    std::unique_ptr<Simulation> sim;
-  };
-  static Cached cached;
-  if (cached.sim && cached.n == n && cached.formulation == formulation && cached.kernel == kernel) {
-    return *cached.sim;
-  }
-  cached.sim.reset();
-  SimulationConfig c = clothbench::micro::box_scene(n);
-  c.solver.formulation = formulation;
-  c.solver.kernel = kernel;
-  cached = {n, formulation, kernel, std::make_unique<Simulation>(c)};
-  clothbench::schedulers::OmpStaticDriver driver;
-  for (int k = 0; k < 3; ++k) cached.sim->step(driver);
-  return *cached.sim;
-}
-
 void gradient(benchmark::State& state, Formulation formulation, ElementKernel kernel) {
   const int n = static_cast<int>(state.range(0));
   const int threads = static_cast<int>(state.range(1));
   omp_set_num_threads(threads);
-  Simulation* sim = &draped_box(n, formulation, kernel);
+  Simulation* sim = &clothbench::micro::draped_box(n, formulation, kernel);
   std::string label = kernel == ElementKernel::vector
                           ? std::string(clothbench::kernels::vector::element_lanes_kernels().isa)
                           : std::string("scalar");
@@ -114,23 +85,10 @@ void triad(benchmark::State& state) {
   state.counters["threads"] = threads;
 }
 
-void gradient_sizes(benchmark::internal::Benchmark* b) {
-  using clothbench::micro::kSmokeParticles;
-  using clothbench::micro::smoke;
-  if (smoke()) {
-    b->Args({kSmokeParticles, 1});
-  } else {
-    for (int n : {101, 301, 1001}) b->Args({n, 1});
-  }
-  const int all = omp_get_num_procs();
-  if (all > 1) b->Args({smoke() ? kSmokeParticles : 1001, all});
-  b->UseRealTime()->Unit(benchmark::kMillisecond);
-}
-
 BENCHMARK_CAPTURE(gradient, potential, Formulation::potential, ElementKernel::reference)
-    ->Apply(gradient_sizes);
+    ->Apply(clothbench::micro::box_sizes);
 BENCHMARK_CAPTURE(gradient, potential_vector, Formulation::potential, ElementKernel::vector)
-    ->Apply(gradient_sizes);
+    ->Apply(clothbench::micro::box_sizes);
 
 /// The triad at every thread count from 1 to the physical cores (the predictor's B(P)).
 void triad_threads(benchmark::internal::Benchmark* b) {

@@ -69,7 +69,8 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
   for (const char* family :
        {"list_rebuild/sequential/", "list_rebuild/parallel_prefix_sum/", "mesh_rewrite/",
         "broad_phase_evaluation/box_101/", "broad_phase_steps/box_101/", "gradient/potential/101/",
-        "gradient/potential_vector/101/",
+        "gradient/potential_vector/101/", "newton_operator/hessian_apply/101/",
+        "newton_operator/vcycle_apply/101/", "newton_operator/vcycle_factor/101/",
         "triad/", "skip_contact/", "skip_amrc/", "skip_inactive/active_lists/",
         "scheduling_overhead/static@blocks/", "scheduling_overhead/active-lists@active/",
         "scheduling_overhead_dynamic_k/falls_with_k/", "scheduling_overhead_epcc_body/dynamic:1/"}) {
@@ -204,6 +205,11 @@ TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {
     };
     if (name.rfind("list_rebuild/", 0) == 0) positive("slots_per_second");
     if (name.rfind("gradient/", 0) == 0) positive("elements_per_second");
+    if (name.rfind("newton_operator/", 0) == 0) {
+      positive("elements_per_second");
+      positive("level0_nodes");
+      EXPECT_GE(b["levels"].get<double>(), 2.0) << name << ": a V-cycle needs a coarse level";
+    }
     if (name.rfind("triad/", 0) == 0) positive("bytes_per_second");
     if (name.rfind("broad_phase_steps/", 0) == 0) positive("pairs_tested_off");
     if (name.rfind("skip_inactive/", 0) == 0) positive("active_share");
