@@ -35,13 +35,6 @@ inline kernels::SimulationConfig box_scene(int n) {
   return c;
 }
 
-/// The box scene at n x n particles, draped for a few steps so elements are in every regime of
-/// their bands (a flat cloth would take the cheap branches only). The element kernel drapes
-/// too (its state differs from the reference's in the last bits). Google Benchmark calls a
-/// benchmark's function once per trial of its iteration count and once per repetition;
-/// draping is minutes at 301^2 and 1001^2, so the last draped scene is kept and handed out
-/// again while n, formulation and kernel stay the same (one at a time: the 1001^2 scene holds
-/// hundreds of MB). Every repetition then times the same state.
 /// The draped box kept between benchmark calls (draped_box), and how many were made.
 struct DrapedBox {
   int n = 0;
@@ -55,6 +48,13 @@ inline DrapedBox& draped_box_cache() {
   return cached;
 }
 
+/// The box scene at n x n particles, draped for a few steps so elements are in every regime of
+/// their bands (a flat cloth would take the cheap branches only). The element kernel drapes
+/// too (its state differs from the reference's in the last bits). Google Benchmark calls a
+/// benchmark's function once per trial of its iteration count and once per repetition;
+/// draping is minutes at 301^2 and 1001^2, so the last draped scene is kept and handed out
+/// again while n, formulation and kernel stay the same (one at a time: the 1001^2 scene holds
+/// hundreds of MB). Every repetition then times the same state.
 inline kernels::Simulation& draped_box(int n, kernels::Formulation formulation,
                                        kernels::ElementKernel kernel) {
   DrapedBox& cached = draped_box_cache();
