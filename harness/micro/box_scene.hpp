@@ -75,6 +75,14 @@ inline kernels::Simulation& draped_box(int n, kernels::Formulation formulation,
   return *cached.sim;
 }
 
+/// elements/s and ns per element (shown in ns: the ns-per-element figure) of a
+/// benchmark that handled `elements` elements (active particles + edges + triples) in all.
+inline void set_element_counters(benchmark::State& state, double elements) {
+  state.counters["elements_per_second"] = benchmark::Counter(elements, benchmark::Counter::kIsRate);
+  state.counters["ns_per_element"] = benchmark::Counter(
+      elements * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 /// The box benchmarks' sizes: 101^2, 301^2 and 1001^2 at one thread, 1001^2 at every
 /// processor (kSmokeParticles in a smoke run), in milliseconds of real time.
 inline void box_sizes(benchmark::internal::Benchmark* b) {

@@ -48,12 +48,8 @@ void gradient(benchmark::State& state, Formulation formulation, ElementKernel ke
   }
   const double evaluations = static_cast<double>(state.iterations());
   const double particles = static_cast<double>(n) * n;
-  state.counters["elements_per_second"] = benchmark::Counter(
-      evaluations * static_cast<double>(sim->active_elements()), benchmark::Counter::kIsRate);
-  // Seconds per element (shown in ns): the ns-per-element figure.
-  state.counters["ns_per_element"] = benchmark::Counter(
-      evaluations * static_cast<double>(sim->active_elements()) * 1e-9,
-      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  clothbench::micro::set_element_counters(
+      state, evaluations * static_cast<double>(sim->active_elements()));
   state.counters["unavoidable_bytes_per_second"] =
       benchmark::Counter(evaluations * particles * 104.0, benchmark::Counter::kIsRate,
                          benchmark::Counter::kIs1024);
