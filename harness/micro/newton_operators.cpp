@@ -55,7 +55,8 @@ struct NewtonOperators {
       objective.assemble_newton(run, /*new_step=*/true);
     });
   }
-  static clothbench::kernels::SimulationConfig newton_config(clothbench::kernels::SimulationConfig c) {
+  static clothbench::kernels::SimulationConfig newton_config(
+      clothbench::kernels::SimulationConfig c) {
     c.solver.method = clothbench::kernels::StepMethod::newton;
     c.solver.preconditioner = clothbench::kernels::Preconditioner::vcycle;
     c.solver.vcycle_after = 0;  // the V-cycle from the first assembly
@@ -138,8 +139,11 @@ void newton_operator(benchmark::State& state, Operator op) {
   state.counters["threads"] = threads;
 }
 
-BENCHMARK_CAPTURE(newton_operator, hessian_apply, Operator::hessian_apply)->Apply(clothbench::micro::box_sizes);
-BENCHMARK_CAPTURE(newton_operator, vcycle_apply, Operator::vcycle_apply)->Apply(clothbench::micro::box_sizes);
-BENCHMARK_CAPTURE(newton_operator, vcycle_factor, Operator::vcycle_factor)->Apply(clothbench::micro::box_sizes);
+BENCHMARK_CAPTURE(newton_operator, hessian_apply, Operator::hessian_apply)
+    ->Apply(clothbench::micro::box_sizes);
+BENCHMARK_CAPTURE(newton_operator, vcycle_apply, Operator::vcycle_apply)
+    ->Apply(clothbench::micro::box_sizes);
+BENCHMARK_CAPTURE(newton_operator, vcycle_factor, Operator::vcycle_factor)
+    ->Apply(clothbench::micro::box_sizes);
 
 }  // namespace
