@@ -96,7 +96,11 @@ struct Lanes {
   /// power_inverse(force, exponent) of TensileBand.
   static V tensile_inverse(const Tensile& t, const V& force, const V& exponent) {
     const V linear = t.emt + (force - t.fm) * t.emt / (t.fm * t.p);
-    const V power = t.emt * xsimd::pow(force / t.fm, V(1.0) / exponent);
+    // pow of a non-positive force is NaN, which xsimd turns into an integer inside its exp: a
+    // float-to-integer conversion out of range, undefined behaviour. Such lanes are selected
+    // away below; they take 1 instead.
+    const V ratio = xsimd::select(force > V(0.0), force / t.fm, V(1.0));
+    const V power = t.emt * xsimd::pow(ratio, V(1.0) / exponent);
     return xsimd::select(force > V(0.0), xsimd::select(force >= t.fm, linear, power), V(0.0));
   }
 
@@ -126,7 +130,9 @@ struct Lanes {
       const M beyond = strain >= t.emt;
       const V linear_slope = t.fm * t.p / t.emt;
       const V linear = t.fm + linear_slope * (strain - t.emt);
-      const V log_ratio = xsimd::log(strain / t.emt);
+      // Lanes without positive strain are zeroed by return_map; their log takes 1, not a
+      // non-positive ratio, whose NaN exp would convert to an integer (see tensile_inverse).
+      const V log_ratio = xsimd::log(xsimd::select(positive, strain / t.emt, V(1.0)));
       const V upper_power = t.fm * xsimd::exp(t.p * log_ratio);
       const V lower_power = t.fm * xsimd::exp(t.q * log_ratio);
       const V upper = xsimd::select(beyond, linear, upper_power);
