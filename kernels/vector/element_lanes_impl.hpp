@@ -99,9 +99,10 @@ struct Lanes {
     // pow of a non-positive force is NaN, which xsimd turns into an integer inside its exp: a
     // float-to-integer conversion out of range, undefined behaviour. Such lanes are selected
     // away below; they take 1 instead.
-    const V ratio = xsimd::select(force > V(0.0), force / t.fm, V(1.0));
-    const V power = t.emt * xsimd::pow(ratio, V(1.0) / exponent);
-    return xsimd::select(force > V(0.0), xsimd::select(force >= t.fm, linear, power), V(0.0));
+    const M positive = force > V(0.0);
+    const V power = t.emt * xsimd::pow(xsimd::select(positive, force / t.fm, V(1.0)),
+                                       V(1.0) / exponent);
+    return xsimd::select(positive, xsimd::select(force >= t.fm, linear, power), V(0.0));
   }
 
   static double edges(const EdgeLanesArgs& args, const std::int32_t* ids, std::int64_t count) {
