@@ -143,7 +143,9 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
   double* band = l.band.data() + l.band_start[line];
   const std::int64_t rows = 3 * (l.start[line + 1] - l.start[line]);
   std::fill(band, band + rows * (w + 1), 0.0);
-  for (std::int64_t e = l.start[line]; e < l.start[line + 1]; ++e) {
+  const std::int64_t last = l.start[line + 1];
+  for (std::int64_t e = l.start[line]; e < last; ++e) {
+    if (e + kPrefetchAhead < last) prefetch_row(level.a, l.order[e + kPrefetchAhead]);
     const std::int64_t a = l.order[e];
     const std::int64_t pa = l.position[a];
     for (std::int64_t blk = level.a.start[a]; blk < level.a.start[a + 1]; ++blk) {

@@ -24,11 +24,14 @@ CLOTHBENCH_SCALAR_LOOPS void band_solve(const double* band, std::int64_t n, int 
       sum -= band[r * row + k - r + w] * x[k];
     x[r] = sum * band[r * row + w];
   }
+  // L^T x = y by columns of L^T, i.e. along the rows of L as they are stored: once x[r] is
+  // known, it leaves the rows above it (the factor is read in the order the forward pass read
+  // it, not across rows).
   for (std::int64_t r = n - 1; r >= 0; --r) {
-    double sum = x[r];
-    const std::int64_t last = std::min<std::int64_t>(n - 1, r + w);
-    for (std::int64_t k = r + 1; k <= last; ++k) sum -= band[k * row + r - k + w] * x[k];
-    x[r] = sum * band[r * row + w];
+    const double xr = x[r] * band[r * row + w];
+    x[r] = xr;
+    const double* lr = band + r * row + w - r;  // lr[k] = L(r, k)
+    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k) x[k] -= lr[k] * xr;
   }
 }
 
@@ -60,7 +63,9 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::update_line(Level& level, int
   const std::int64_t rows = 3 * (l.start[line + 1] - first);
   double* rhs = level.scratch.data() + 3 * first;
   const BlockRows& a = level.a;
-  for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
+  const std::int64_t last = l.start[line + 1];
+  for (std::int64_t e = first; e < last; ++e) {
+    if (e + kPrefetchAhead < last) prefetch_row(a, l.order[e + kPrefetchAhead]);
     block_residual(a.start.data(), a.col.data(), a.value.data(), l.order[e], level.x.data(),
                    level.b.data(), rhs + 3 * (e - first));
   }

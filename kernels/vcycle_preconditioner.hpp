@@ -207,6 +207,21 @@ class VcyclePreconditioner {
     std::vector<std::int64_t> order;
   };
 
+  /// Nodes ahead on a line whose rows the line kernels (update_line, factor_line) prefetch: a
+  /// row's blocks (up to 9 of 72 B at level 0, up to 25 on coarse levels) lie far from the
+  /// last node's along a line of the second direction, and one node's work is too long for
+  /// the out-of-order window to reach the next node's loads (kernels/MODEL-NOTES.md, "V-cycle",
+  /// "Prefetching").
+  static constexpr std::int64_t kPrefetchAhead = 2;
+  /// Asks the cache for the blocks of row `node` of `a` (no effect on results; prefetching its
+  /// columns as well measured slower).
+  static void prefetch_row(const BlockRows& a, std::int64_t node) {
+    const std::int64_t first = a.start[node], count = a.start[node + 1] - first;
+    const char* values = reinterpret_cast<const char*>(a.value.data() + 9 * first);
+    constexpr std::int64_t kLine = 64, kBlock = 9 * sizeof(double);
+    for (std::int64_t at = 0; at < count * kBlock; at += kLine) __builtin_prefetch(values + at);
+  }
+
   enum class Coarsening { level, too_few, coarsest };
   /// One thread: the nodes of level k on the lattice of spacing s (and those that cannot
   /// follow it) as level k + 1, with level k's prolongation; too_few when that would keep
