@@ -218,7 +218,8 @@ class VcyclePreconditioner {
   static void prefetch_row(const BlockRows& a, std::int64_t node) {
     const std::int64_t first = a.start[node], count = a.start[node + 1] - first;
     const char* values = reinterpret_cast<const char*>(a.value.data() + 9 * first);
-    constexpr std::int64_t kLine = 64, kBlock = 9 * sizeof(double);
+    constexpr std::int64_t kLine = 64;
+    constexpr std::int64_t kBlock = 9 * sizeof(decltype(a.value)::value_type);
     for (std::int64_t at = 0; at < count * kBlock; at += kLine) __builtin_prefetch(values + at);
   }
 
