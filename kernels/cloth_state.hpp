@@ -44,12 +44,16 @@ struct ClothState {
   /// Per step: 2 per id, curvatures where the bending loading / unloading curve reaches M_t
   /// (the return mapping's breakpoints; an inverse of a non-power-law curve, so cached).
   std::vector<double> triple_breakpoints;
+  /// Per step, the vector kernel's only (empty otherwise): 2 per id, what the potential off the
+  /// loading curve adds to the curvature's terms, {plateau, unloading} (potential_elements.hpp
+  /// bending_offloading); 32 MB at the paper's 1001^2.
+  std::vector<double> triple_offloading;
   /// External forces (sparse: a few particles at most; looked up only for forced slots).
   std::vector<ExternalForce> external_forces;
 
   /// Allocates every array for `slots` particles (zero-filled); gradient_old only with
-  /// `cg_history` (the nonlinear CG minimiser's).
-  void allocate(std::int64_t slots, bool cg_history = true) {
+  /// `cg_history` (the nonlinear CG minimiser's), triple_offloading only with `vector_kernel`.
+  void allocate(std::int64_t slots, bool cg_history = true, bool vector_kernel = false) {
     const auto n = static_cast<std::size_t>(slots);
     for (auto* v : {&position, &step_start, &target, &gradient, &direction}) v->assign(3 * n, 0.0);
     gradient_old.assign(cg_history ? 3 * n : 0, 0.0);
@@ -60,13 +64,15 @@ struct ClothState {
     edge_scratch.assign(2 * n, 0.0);
     triple_scratch.assign(6 * n, 0.0);
     triple_breakpoints.assign(4 * n, 0.0);
+    triple_offloading.assign(vector_kernel ? 4 * n : 0, 0.0);
+    triple_offloading.shrink_to_fit();
   }
   /// Bytes held by the arrays.
   [[nodiscard]] std::size_t memory_bytes() const {
     std::size_t b = preconditioner.capacity() * sizeof(float);
     for (const auto* v : {&position, &step_start, &target, &gradient, &gradient_old, &direction,
                           &edge_force, &triple_moment, &edge_scratch, &triple_scratch,
-                          &triple_breakpoints}) {
+                          &triple_breakpoints, &triple_offloading}) {
       b += v->capacity() * sizeof(double);
     }
     return b;

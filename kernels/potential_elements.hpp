@@ -102,6 +102,19 @@ inline void bending_breakpoints(const BendingBand& band, double previous, double
   out[1] = std::max(out[0], band.unloading_inverse(previous));
 }
 
+/// What fast_return_map's bending potential off the loading curve adds to the curvature's
+/// terms, for previous moment `previous` and its `breakpoints` {lower, upper}: {plateau,
+/// unloading}, the plateau's potential being out[0] + previous kappa and the unloading one
+/// out[1] + unloading_integral(kappa). Cached per step for the vector kernel, whose lanes then
+/// need no integral at the breakpoints (three expm1 and ramps fewer a lane group).
+inline void bending_offloading(const BendingBand& band, double previous, const double* breakpoints,
+                               double* out) {
+  const double lower = breakpoints[0], upper = breakpoints[1];
+  const double lower_potential = band.loading_integral(lower);
+  out[0] = lower_potential - previous * lower;
+  out[1] = lower_potential + previous * (upper - lower) - band.unloading_integral(upper);
+}
+
 /// Edge e = 2*slot+d: energy w L Psi(eps); force density w t / l (N/m / m * m) for the gather.
 struct EdgeTerm {
   double energy = 0.0;

@@ -28,7 +28,9 @@ Simulation::Simulation(const SimulationConfig& config)
   config_.solver = resolved_solver(config_.solver);
   for (const ObstacleConfig& o : config_.obstacles) obstacles_.emplace_back(o);
   check_events();
-  state_.allocate(mesh_.slot_count(), config_.solver.method != StepMethod::newton);
+  state_.allocate(mesh_.slot_count(), config_.solver.method != StepMethod::newton,
+                  config_.solver.kernel == ElementKernel::vector &&
+                      config_.solver.formulation == Formulation::potential);
   place_initial_positions();
   if (const std::vector<ConfigProblem> problems = validate(config_); !problems.empty()) {
     throw std::invalid_argument(problems.front().key + ": " + problems.front().problem + " (" +

@@ -23,14 +23,15 @@ inline EdgeLanesArgs edge_lanes_args(const ClothMesh& mesh, ClothState& state,
   return args;
 }
 
-/// Triple loop arguments: reads positions, previous moments and the step's breakpoints,
-/// writes state.triple_scratch.
+/// Triple loop arguments: reads positions, previous moments and the step's off-loading
+/// constants (state.triple_offloading, which the vector kernel's state holds), writes
+/// state.triple_scratch.
 inline TripleLanesArgs triple_lanes_args(const ClothMesh& mesh, ClothState& state,
                                          const FabricMaterial& material) {
   TripleLanesArgs args{state.position.data(),           mesh.prev.data(),
                        mesh.next.data(),                mesh.triple_rest.data(),
                        mesh.triple_width.data(),        state.triple_moment.data(),
-                       state.triple_breakpoints.data(), state.triple_scratch.data(),
+                       state.triple_offloading.data(),  state.triple_scratch.data(),
                        {},                              {}};
   for (int d = 0; d < 2; ++d) {
     const BendingBand& b = material.bending[d];

@@ -46,7 +46,7 @@ struct TripleLanesArgs {
   const float* rest;
   const float* width;
   const double* previous_moment;  ///< per element id, N
-  const double* breakpoints;      ///< 2 per element id: {lower, upper} (cached per step)
+  const double* offloading;       ///< 2 per element id: bending_offloading's {plateau, unloading}
   double* coefficients;           ///< out, 3 per element id: w M (A, Bc, C)
   BendingLanesBand band[2];
   RampSeries ramp;

@@ -244,6 +244,9 @@ void compare(kernels::Simulation& ref, kernels::Simulation& vec, const std::stri
     std::fill(st.edge_scratch.begin(), st.edge_scratch.end(), -1.0);
     std::fill(st.triple_scratch.begin(), st.triple_scratch.end(), -1.0);
     const auto edges = kernels::vector::edge_lanes_args(mesh, st, ref.material());
+    // The vector simulation's state holds the step's off-loading constants (same moments).
+    ASSERT_EQ(vec.state().triple_offloading.size(), st.triple_breakpoints.size());
+    st.triple_offloading = vec.state().triple_offloading;
     const auto triples = kernels::vector::triple_lanes_args(mesh, st, ref.material());
     for (const auto& ids : tiles_of(mesh, ElementKind::edges)) {
       if (!ids.empty()) isas[k]->edges(edges, ids.data(), static_cast<std::int64_t>(ids.size()));
