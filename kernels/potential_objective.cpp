@@ -451,22 +451,18 @@ void PotentialObjective::move(LoopRunner& run, double delta) {
 
 void PotentialObjective::prepare_history(LoopRunner& run) {
   ClothState& st = ctx_.state;
-  if (st.triple_offloading.empty()) {
-    // The moment read, its two breakpoints written.
-    const LoopBytes breakpoint_bytes{.read = bytes::kDouble, .written = 2 * bytes::kDouble};
-    run.for_each(ElementKind::triples, breakpoint_bytes, [&](std::int64_t id) {
-      bending_breakpoints(ctx_.material.bending[element_direction(id)], st.triple_moment[id],
-                          &st.triple_breakpoints[2 * id]);
-    });
-    return;
-  }
-  // The vector kernel's: the two breakpoints and what the off-loading potentials add.
-  const LoopBytes offloading_bytes{.read = bytes::kDouble, .written = 4 * bytes::kDouble};
-  run.for_each(ElementKind::triples, offloading_bytes, [&](std::int64_t id) {
+  // The moment read, its two breakpoints written, and under the vector kernel (whose state
+  // holds triple_offloading) what the off-loading potentials take from them.
+  const bool offloading = !st.triple_offloading.empty();
+  const LoopBytes history_bytes{.read = bytes::kDouble,
+                                .written = (offloading ? 4 : 2) * bytes::kDouble};
+  run.for_each(ElementKind::triples, history_bytes, [&](std::int64_t id) {
     const BendingBand& band = ctx_.material.bending[element_direction(id)];
     bending_breakpoints(band, st.triple_moment[id], &st.triple_breakpoints[2 * id]);
-    bending_offloading(band, st.triple_moment[id], &st.triple_breakpoints[2 * id],
-                       &st.triple_offloading[2 * id]);
+    if (offloading) {
+      bending_offloading(band, st.triple_moment[id], &st.triple_breakpoints[2 * id],
+                         &st.triple_offloading[2 * id]);
+    }
   });
 }
 
