@@ -147,6 +147,13 @@ int main(int argc, char** argv) {
       "--benchmark_filter=^triad --benchmark_format=json --benchmark_out=FILE in the trace "
       "header (clothbench predict's bandwidth ceiling)");
 
+  std::filesystem::path newton_log;
+  auto* newton_log_option = run_command->add_option(
+      "--newton-log", newton_log,
+      "Write every Newton iteration of every step to FILE (CSV: residual before, forcing term, "
+      "inner PCG iterations and relative residual, accepted step length, line-search "
+      "evaluations, residual after the line search and after the smoothing; Newton only)");
+
   std::filesystem::path check_file;
   auto* check_command =
       app.add_subcommand("check", "Validate a scene file and print what it sets up");
@@ -312,6 +319,7 @@ int main(int argc, char** argv) {
       if (*preconditioner_option) run.preconditioner = preconditioner;
       run.write_vtk = !no_vtk;
       if (*trace_option) run.trace_file = trace_file;
+      if (*newton_log_option) run.newton_log = newton_log;
       if (*trace_step_option) run.trace_step = trace_step;
       if (*trace_overheads_option) run.trace_overheads = trace_overheads;
       if (*trace_bandwidth_option) run.trace_bandwidth = trace_bandwidth;

@@ -29,6 +29,25 @@ struct MinimiserSettings {
 };
 
 /// Outcome of one step's minimisation.
+/// One Newton iteration as the solver saw it (MinimiserReport::newton_log, recorded when
+/// SolverConfig::log_iterations is set; `clothbench run --newton-log`). Residuals are RMS
+/// normalised residuals (MinimiserReport::rms).
+struct NewtonIterationRecord {
+  int attempt = 0;          ///< the step's (sub-)step attempt, 0-based in the order they ran
+  double dt = 0.0;          ///< that attempt's step length, s
+  int iteration = 0;        ///< 0-based within the attempt
+  double rms = 0.0;         ///< at the iterate the direction was solved from
+  double forcing = 0.0;     ///< relative residual asked of the inner solve
+  int linear_iterations = 0;         ///< PCG iterations, the model refinements' solves included
+  double linear_relative_residual = 0.0;  ///< reached by the last of those solves
+  int refinements = 0;      ///< solves done again after the model reached along the direction
+  double alpha = 0.0;       ///< step length the line search accepted (1 = the full step)
+  int line_search_evaluations = 0;
+  double rms_line_search = 0.0;  ///< after the line search
+  std::int64_t smoothed = 0;     ///< particle moves of the nonlinear smoothing that followed
+  double rms_after = 0.0;        ///< after the smoothing: where the next iteration starts
+};
+
 struct MinimiserReport {
   int iterations = 0;         ///< nonlinear CG iterations, or Newton iterations
   int linear_iterations = 0;  ///< Newton only: inner PCG iterations (products with H), summed
@@ -39,6 +58,7 @@ struct MinimiserReport {
   Evaluation initial;  ///< at the step's initial guess
   Evaluation final;    ///< at the accepted result
   std::vector<double> values;  ///< objective at the start and after each iteration (if recorded)
+  std::vector<NewtonIterationRecord> newton_log;  ///< Newton only, if recorded: its iterations
   /// RMS normalised residual sqrt(cost / free particles) of an evaluation.
   static double rms(const Evaluation& e) {
     return e.free_particles > 0 ? std::sqrt(e.cost / static_cast<double>(e.free_particles)) : 0.0;

@@ -43,6 +43,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     if (!assembled) objective.refresh_preconditioner(run);
     assembled = false;
     const double norm = std::sqrt(current.cost);
+    const double rms_start = MinimiserReport::rms(current);
     if (report.iterations > 0) {
       // Eisenstat-Walker choice 2 with its safeguard against a sudden drop of the forcing term.
       const double ratio = norm / previous_norm;
@@ -56,9 +57,11 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
         0.5 * settings.tolerance * std::sqrt(static_cast<double>(current.free_particles)) / norm;
     forcing = std::min(settings.forcing_max, std::max(forcing, needed));
     LinearSolveReport linear;
+    int linear_this_iteration = 0, refinements_done = 0;
     const auto solve = [&] {
       linear = objective.solve_newton_direction(run, forcing, settings.max_linear_iterations);
       report.linear_iterations += linear.iterations;
+      linear_this_iteration += linear.iterations;
       if (!linear.positive) ++report.restarts;
     };
     solve();
@@ -68,6 +71,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     for (int r = 0; r < settings.model_refinements && linear.slope < 0.0; ++r) {
       objective.refresh_preconditioner(run);
       solve();
+      ++refinements_done;
     }
     if (!(linear.slope < 0.0)) {
       report.reason = StopReason::no_descent;
@@ -85,18 +89,35 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     }
     previous_norm = norm;
     current = ls.at;
+    NewtonIterationRecord record;
+    if (settings.log_iterations) {
+      record.iteration = report.iterations;
+      record.rms = rms_start;
+      record.forcing = forcing;
+      record.linear_iterations = linear_this_iteration;
+      record.linear_relative_residual = linear.relative_residual;
+      record.refinements = refinements_done;
+      record.alpha = ls.alpha;
+      record.line_search_evaluations = ls.evaluations;
+      record.rms_line_search = MinimiserReport::rms(current);
+    }
     if (settings.smoothing_sweeps > 0) {
       // Local nonlinear corrections the global model cannot make: an element past a kink of
       // its band (plateau wall, onset of tension) is relaxed particle by particle.
       const std::int64_t moved =
           objective.smooth(run, settings.smoothing_sweeps, settings.smoothing_threshold);
       report.smoothed += moved;
+      record.smoothed = moved;
       if (moved > 0) {  // else the line search's evaluation still holds
         current = objective.evaluate(run);
         ++report.evaluations;
       }
     }
     if (settings.record_values) report.values.push_back(current.value);
+    if (settings.log_iterations) {
+      record.rms_after = MinimiserReport::rms(current);
+      report.newton_log.push_back(record);
+    }
     ++report.iterations;
   }
   report.final = current;

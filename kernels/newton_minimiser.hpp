@@ -22,6 +22,7 @@ struct NewtonSettings {
   double armijo = 1e-4;
   double curvature = 0.9;         ///< strong Wolfe c2: loose, the Newton step is well scaled
   bool record_values = false;
+  bool log_iterations = false;    ///< fill MinimiserReport::newton_log
   /// Sweeps of nonlinear block Gauss-Seidel after each line search (PotentialObjective::smooth;
   /// 0: none), relaxing the particles whose normalised residual is at least the threshold.
   int smoothing_sweeps = 0;

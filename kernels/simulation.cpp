@@ -81,6 +81,7 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
   newton.max_newton_iterations = config_.solver.max_newton_iterations;
   newton.max_linear_iterations = config_.solver.max_linear_iterations;
   newton.record_values = config_.solver.record_values;
+  newton.log_iterations = config_.solver.log_iterations;
   newton.smoothing_sweeps = effective_smoothing_sweeps(config_.solver);
   newton.model_refinements = effective_model_refinements(config_.solver);
   newton.smoothing_threshold = config_.solver.smoothing_threshold * config_.solver.tolerance;
@@ -119,6 +120,13 @@ StepReport Simulation::step(schedulers::LoopDriver& driver, Instrumentation inst
       total.linear_iterations += r.linear_iterations;
       total.evaluations += r.evaluations;
       total.restarts += r.restarts;
+      total.smoothed += r.smoothed;
+      const int attempt = sub_steps + rejected;
+      for (NewtonIterationRecord record : r.newton_log) {
+        record.attempt = attempt;
+        record.dt = dt;
+        total.newton_log.push_back(record);
+      }
       total.values.insert(total.values.end(), r.values.begin(), r.values.end());
       if (sub_steps == 0 && rejected == 0) total.initial = r.initial;
       const double rms = MinimiserReport::rms(r.final);

@@ -187,6 +187,9 @@ struct SolverConfig {
   int max_step_halvings = 6;
   /// Record the objective after every CG iteration in StepReport (tests and studies).
   bool record_values = false;
+  /// Newton: record every iteration (forcing, inner solve, line search, smoothing) in
+  /// StepReport::minimiser.newton_log (`clothbench run --newton-log`). Results are unchanged.
+  bool log_iterations = false;
   /// Wall-clock budget for the minimisation of the whole run, s (0 = none; the paper's
   /// time-budget mode). What is left is shared evenly by the steps still planned
   /// (Simulation::set_planned_steps); a step whose share runs out stops its CG there and is

@@ -116,6 +116,16 @@ int run_scene(const RunOptions& options) {
     threads = resolve_threads(options.threads, options.allow_oversubscribe, "--threads");
     driver = schedulers::make_driver(options.scheduler);
     trace_models = check_trace_options(options, scene.steps);
+    if (options.newton_log) {
+      if (kernels::resolved_method(scene.simulation.solver) != kernels::StepMethod::newton) {
+        throw std::invalid_argument(fmt::format(
+            "--newton-log: {} runs method {}; the log records Newton iterations (set [solver] "
+            "method = \"newton\" or pass --method newton)",
+            scene.file.string(),
+            kernels::to_string(kernels::resolved_method(scene.simulation.solver))));
+      }
+      scene.simulation.solver.log_iterations = true;
+    }
   } catch (const SceneError& error) {
     fmt::print(stderr, "clothbench: {}\n", error.what());
     return kExitBadInput;
@@ -190,6 +200,11 @@ int run_scene(const RunOptions& options) {
       write_vtk(dir / "final.vtk", surface_mesh(simulation), scene.name);
     }
     write_file_atomically(dir / "summary.json", document.dump(2) + "\n");
+    if (options.newton_log) {
+      write_file_atomically(*options.newton_log, newton_log_csv(summary.newton_log));
+      fmt::print("  wrote {} ({} Newton iterations)\n", options.newton_log->string(),
+                 summary.newton_log.size());
+    }
     if (!summary.non_finite.empty()) {
       for (const auto& file :
            write_non_finite_snapshot(dir, "non_finite_snapshot", summary, simulation, scene.name)) {

@@ -32,6 +32,8 @@ struct RunOptions {
   /// --trace-bandwidth FILE: clothbench-micro's triad JSON, whose bandwidth by thread count
   /// goes into the trace header for the predictor's ceiling (bandwidth_model.hpp).
   std::optional<std::filesystem::path> trace_bandwidth;
+  /// --newton-log FILE: every Newton iteration of every step as CSV (newton_log_csv).
+  std::optional<std::filesystem::path> newton_log;
 };
 
 /// Runs the scene and prints per-step cost, final summary and `Verification: PASSED/FAILED`.

@@ -133,6 +133,10 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                  record.step, where);
       break;
     }
+    // A Newton iteration's figures are finite when its step was (checked just above).
+    for (const kernels::NewtonIterationRecord& iteration : m.newton_log) {
+      summary.newton_log.push_back({record.step, iteration});
+    }
     if (observer && !observer(simulation, record)) break;
   }
   summary.average_minimised_cost =
@@ -151,6 +155,21 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
     }
   }
   return summary;
+}
+
+std::string newton_log_csv(const std::vector<NewtonLogRow>& rows) {
+  std::string out =
+      "step,attempt,dt_s,iteration,rms,forcing,linear_iterations,linear_relative_residual,"
+      "refinements,alpha,line_search_evaluations,rms_after_line_search,smoothed_particles,"
+      "rms_after\n";
+  for (const NewtonLogRow& row : rows) {
+    const kernels::NewtonIterationRecord& r = row.iteration;
+    out += fmt::format("{},{},{:.9g},{},{:.9g},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g}\n",
+                       row.step, r.attempt, r.dt, r.iteration, r.rms, r.forcing,
+                       r.linear_iterations, r.linear_relative_residual, r.refinements, r.alpha,
+                       r.line_search_evaluations, r.rms_line_search, r.smoothed, r.rms_after);
+  }
+  return out;
 }
 
 void print_summary(const RunSummary& s) {

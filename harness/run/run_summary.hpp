@@ -40,8 +40,16 @@ struct AppliedEvent {
 };
 
 /// Everything a run measured.
+/// One row of `clothbench run --newton-log`: a Newton iteration of a step.
+struct NewtonLogRow {
+  int step = 0;
+  kernels::NewtonIterationRecord iteration;
+};
+
 struct RunSummary {
   std::vector<StepRecord> steps;
+  /// Every Newton iteration, when the solver recorded them (SolverConfig::log_iterations).
+  std::vector<NewtonLogRow> newton_log;
   double wall_seconds = 0.0;             ///< all steps
   double average_minimised_cost = 0.0;   ///< mean over steps of final E / active elements
   kernels::StateDiagnostics final_state;
@@ -80,6 +88,11 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                     kernels::ChunkTrace* trace = nullptr);
 /// One line describing a scripted event (what the run prints when it begins).
 std::string describe_event(const kernels::SceneEvent& event);
+/// `clothbench run --newton-log`: a header line, then one line per Newton iteration (step,
+/// attempt, dt_s, iteration, rms, forcing, linear_iterations, linear_relative_residual,
+/// refinements, alpha, line_search_evaluations, rms_after_line_search, smoothed_particles,
+/// rms_after; see kernels::NewtonIterationRecord).
+std::string newton_log_csv(const std::vector<NewtonLogRow>& rows);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
 void print_summary(const RunSummary& summary);
 /// The state when a non-finite value appeared, as JSON (non-finite entries become null).

@@ -10,6 +10,9 @@
 //    plot scripts set, with real content (when gnuplot is installed; under CI=true it must be);
 //  - `run --gradient numeric` reaches the kernel (header, summary.json, a result near but not
 //    bitwise the analytic one) and a bad value is refused naming --gradient;
+//  - `run --newton-log FILE` writes one CSV row per Newton iteration of every step (as many as
+//    summary.json counts, each step's residuals chained from one iteration to the next) and
+//    is refused, naming the flag, under nonlinear CG;
 //  - `experiment time-error --scene FILE` runs on that scene (its path, size and step count in
 //    time_error.json; tests/data/scenes/time-error-tiny.toml), and the other experiments refuse
 //    --scene.
@@ -25,6 +28,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -292,6 +296,70 @@ TEST_F(CommandOptions, RunSummaryRecordsTheMinimisersSettingsWithDefaultsResolve
   EXPECT_FALSE(c.contains("vcycle_after"));
   EXPECT_FALSE(c.contains("smoothing_sweeps"));
   EXPECT_EQ(c["tolerance"], n["tolerance"]);
+}
+
+TEST_F(CommandOptions, RunNewtonLogWritesEveryNewtonIterationOfEveryStep) {
+  const fs::path out = fresh_dir("newton-log");
+  const fs::path log = out / "logs" / "newton.csv";  // its directory is made
+  Outcome o;
+  const json summary = tiny_run(out, "--newton-log " + quote(log.string()), o);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("wrote " + log.string()));
+  std::ifstream in(log);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line)) << "empty " << log;
+  EXPECT_EQ(line,
+            "step,attempt,dt_s,iteration,rms,forcing,linear_iterations,linear_relative_residual,"
+            "refinements,alpha,line_search_evaluations,rms_after_line_search,"
+            "smoothed_particles,rms_after");
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<double> fields;
+    std::stringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) fields.push_back(std::stod(cell));
+    ASSERT_EQ(fields.size(), 14u) << line;
+    for (const double f : fields) EXPECT_TRUE(std::isfinite(f)) << line;
+    rows.push_back(fields);
+  }
+  // As many rows as Newton iterations, per step; each step's iterations numbered from 0 and
+  // chained: an iteration starts from where the one before it ended.
+  ASSERT_EQ(summary["steps"].size(), 2u);
+  std::size_t row = 0;
+  for (const json& step : summary["steps"]) {
+    const int iterations = step["iterations"];
+    EXPECT_GT(iterations, 0) << step.dump();
+    int linear = 0;
+    for (int k = 0; k < iterations; ++k, ++row) {
+      ASSERT_LT(row, rows.size());
+      const std::vector<double>& r = rows[row];
+      EXPECT_EQ(r[0], step["step"].get<double>());
+      EXPECT_EQ(r[1], 0.0) << "no step of this scene is halved";
+      EXPECT_EQ(r[2], 0.01) << "the scene's step";
+      EXPECT_EQ(r[3], k);
+      EXPECT_GT(r[9], 0.0) << "alpha";
+      EXPECT_LE(r[9], 1.0) << "alpha";
+      EXPECT_GE(r[10], 1.0) << "line-search evaluations";
+      if (k > 0) {
+        EXPECT_EQ(r[4], rows[row - 1][13]) << "row " << row;
+      }
+      linear += static_cast<int>(r[6]);
+    }
+    EXPECT_EQ(linear, step["linear_iterations"].get<int>()) << step.dump();
+    EXPECT_LE(rows[row - 1][13], summary["solver"]["settings"]["tolerance"].get<double>())
+        << "the last iteration ends converged";
+  }
+  EXPECT_EQ(row, rows.size());
+}
+
+TEST_F(CommandOptions, RunNewtonLogIsRefusedUnderNonlinearCg) {
+  const fs::path out = fresh_dir("newton-log-cg");
+  Outcome o;
+  tiny_run(out, "--method nonlinear-cg --newton-log " + quote((out / "n.csv").string()), o);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--newton-log"));
+  EXPECT_THAT(o.output, HasSubstr("nonlinear-cg"));
+  EXPECT_FALSE(fs::exists(out / "n.csv"));
 }
 
 TEST_F(CommandOptions, RunGradientNumericReachesTheKernel) {

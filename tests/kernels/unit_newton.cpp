@@ -3,11 +3,12 @@
 // (with and without the smoothing and the model's refinement) reaches the state nonlinear CG
 // reaches and assembles its model as often as its refinements ask; the V-cycle is built only
 // for steps whose solves need more than block Jacobi; and damping is a rate, so
-// halving the step does not add damping. The model Hessian: unit_model_hessian.cpp.
+// halving the step does not add damping; the per-iteration log changes no bit. The model Hessian: unit_model_hessian.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <tuple>
 #include <vector>
 
@@ -179,6 +180,58 @@ TEST(NewtonMinimiser, AssemblesTheModelAgainAlongEachDirectionItsRefinementsAsk)
     EXPECT_GT(newton_iterations, 8) << "the drape needs Newton iterations";
     EXPECT_EQ(sim.vcycle_work().factorisations, expected) << refinements << " refinements";
   }
+}
+
+TEST(NewtonMinimiser, LogsEveryIterationWithoutChangingTheResult) {
+  // The log (SolverConfig::log_iterations) is a record only: the same bits with and without
+  // it. Each record starts where the one before it ended, the first at the step's initial
+  // guess and the last at its result, and its figures add up to the step's report.
+  kernels::SimulationConfig c = newton_config(small_drape());
+  c.solver.preconditioner = Preconditioner::vcycle;
+  kernels::Simulation plain(c);
+  c.solver.log_iterations = true;
+  kernels::Simulation logged(c);
+  schedulers::OmpStaticDriver driver;
+  const int refinements = kernels::effective_model_refinements(c.solver);
+  int newton_iterations = 0;
+  for (int step = 0; step < 8; ++step) {
+    const kernels::StepReport a = plain.step(driver);
+    const kernels::StepReport b = logged.step(driver);
+    EXPECT_TRUE(a.minimiser.newton_log.empty());
+    const kernels::MinimiserReport& m = b.minimiser;
+    ASSERT_EQ(b.sub_steps, 1);
+    ASSERT_EQ(m.newton_log.size(), static_cast<std::size_t>(m.iterations)) << "step " << b.step;
+    int linear = 0;
+    std::int64_t smoothed = 0;
+    for (std::size_t k = 0; k < m.newton_log.size(); ++k) {
+      const kernels::NewtonIterationRecord& r = m.newton_log[k];
+      EXPECT_EQ(r.attempt, 0);
+      EXPECT_EQ(r.dt, c.time.step);
+      EXPECT_EQ(r.iteration, static_cast<int>(k));
+      EXPECT_EQ(r.rms, k == 0 ? kernels::MinimiserReport::rms(m.initial)
+                              : m.newton_log[k - 1].rms_after);
+      EXPECT_GT(r.alpha, 0.0);
+      EXPECT_LE(r.alpha, 1.0);
+      EXPECT_GE(r.line_search_evaluations, 1);
+      EXPECT_GT(r.forcing, 0.0);
+      EXPECT_EQ(r.refinements, refinements);
+      EXPECT_LE(r.rms_line_search, r.rms * 1e3) << "finite and of the step's size";
+      linear += r.linear_iterations;
+      smoothed += r.smoothed;
+    }
+    if (!m.newton_log.empty()) {
+      EXPECT_EQ(m.newton_log.back().rms_after, kernels::MinimiserReport::rms(m.final));
+    }
+    EXPECT_EQ(linear, m.linear_iterations) << "step " << b.step;
+    EXPECT_EQ(smoothed, m.smoothed) << "step " << b.step;
+    EXPECT_EQ(m.iterations, a.minimiser.iterations);
+    newton_iterations += m.iterations;
+  }
+  EXPECT_GT(newton_iterations, 8) << "the drape needs Newton iterations";
+  const std::vector<double>& x = plain.state().position;
+  const std::vector<double>& y = logged.state().position;
+  ASSERT_EQ(x.size(), y.size());
+  EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << "the same bits";
 }
 
 TEST(NewtonMinimiser, BuildsTheVcycleOnlyForStepsWhoseSolvesNeedIt) {
