@@ -2,8 +2,9 @@
 // keep every element to one moving particle per colour and its moves only lower Phi; Newton
 // (with and without the smoothing and the model's refinement) reaches the state nonlinear CG
 // reaches and assembles its model as often as its refinements ask; the V-cycle is built only
-// for steps whose solves need more than block Jacobi; and damping is a rate, so
-// halving the step does not add damping; the per-iteration log changes no bit. The model Hessian: unit_model_hessian.cpp.
+// for steps whose solves need more than block Jacobi; the per-iteration log changes no bit; and
+// damping is a rate, so halving the step does not add damping. The model Hessian:
+// unit_model_hessian.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
