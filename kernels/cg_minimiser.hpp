@@ -46,6 +46,10 @@ struct NewtonIterationRecord {
   double rms_line_search = 0.0;  ///< after the line search
   std::int64_t smoothed = 0;     ///< particle moves of the nonlinear smoothing that followed
   double rms_after = 0.0;        ///< after the smoothing: where the next iteration starts
+  /// The active edges by branch where the iteration ends (PotentialObjective::edge_census:
+  /// slack, loading curve, plateau, unloading curve), and how many changed branch in it.
+  std::int64_t edges_slack = 0, edges_loading = 0, edges_plateau = 0, edges_unloading = 0;
+  std::int64_t edges_changed = 0;
 };
 
 struct MinimiserReport {

@@ -19,6 +19,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
   report.evaluations = 1;
   report.initial = current;
   if (settings.record_values) report.values.push_back(current.value);
+  if (settings.log_iterations) objective.edge_census(run, false);  // the branches it starts on
   MinimiserSettings search;
   search.max_line_search = settings.max_line_search;
   search.armijo = settings.armijo;
@@ -116,6 +117,12 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     if (settings.record_values) report.values.push_back(current.value);
     if (settings.log_iterations) {
       record.rms_after = MinimiserReport::rms(current);
+      const EdgeCensus census = objective.edge_census(run, true);
+      record.edges_slack = census.slack;
+      record.edges_loading = census.loading;
+      record.edges_plateau = census.plateau;
+      record.edges_unloading = census.unloading;
+      record.edges_changed = census.changed;
       report.newton_log.push_back(record);
     }
     ++report.iterations;

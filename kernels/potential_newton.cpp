@@ -44,6 +44,41 @@ void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
   if (multigrid_ != nullptr) multigrid_->factor(run, ctx_, hessian);
 }
 
+EdgeCensus PotentialObjective::edge_census(LoopRunner& run, bool compare) {
+  const ClothMesh& mesh = ctx_.mesh;
+  const ClothState& st = ctx_.state;
+#pragma omp single
+  if (edge_branch_.size() != static_cast<std::size_t>(2 * mesh.slot_count())) {
+    edge_branch_.assign(static_cast<std::size_t>(2 * mesh.slot_count()), 0);
+  }  // the single's barrier publishes the buffer
+  // x's share, the previous force and the old branch read; the branch written.
+  const LoopBytes census_bytes{.read = bytes::kSlotShare * bytes::kVector3 + bytes::kDouble + 1.0,
+                               .written = 1.0};
+  run.for_each<EdgeCensus>(
+      ElementKind::edges, &census_partials_, census_bytes, [&](std::int64_t id, EdgeCensus& acc) {
+        const Eigen::Vector3d e =
+            vec3(st.position, mesh.next[id]) - vec3(st.position, element_slot(id));
+        const double strain = e.norm() / mesh.edge_rest[id] - 1.0;
+        std::uint8_t branch = 0;  // slack
+        if (strain > 0.0) {
+          // The return mapping's own tests (fast_return_map): loading where the previous force
+          // is not below the loading curve, the plateau where not below the unloading curve.
+          const BandCurves c = ctx_.material.tensile[element_direction(id)].curves(strain);
+          const double previous = st.edge_force[id];
+          branch = !(previous < c.upper) ? 1 : (!(previous < c.lower) ? 2 : 3);
+        }
+        switch (branch) {
+          case 0: ++acc.slack; break;
+          case 1: ++acc.loading; break;
+          case 2: ++acc.plateau; break;
+          default: ++acc.unloading; break;
+        }
+        if (compare && edge_branch_[id] != branch) ++acc.changed;
+        edge_branch_[id] = branch;
+      });
+  return run.reduce(census_partials_);
+}
+
 LinearSolveReport PotentialObjective::solve_newton_direction(LoopRunner& run, double forcing,
                                                              int max_iterations) {
   ClothState& st = ctx_.state;

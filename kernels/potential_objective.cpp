@@ -32,6 +32,7 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
       edge_partials_(ctx.mesh.tile_count()),
       triple_partials_(ctx.mesh.tile_count()),
       scalar_partials_(ctx.mesh.tile_count()),
+      census_partials_(ctx.mesh.tile_count()),
       gather_partials_(ctx.mesh.tile_count()),
       precondition_partials_(ctx.mesh.tile_count()) {
   const Preconditioner kind = ctx.config.solver.preconditioner;

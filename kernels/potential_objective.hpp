@@ -21,6 +21,22 @@ namespace clothbench::kernels {
 
 struct LocalTerms;
 
+/// The active edges by the branch of their band's return mapping at the current positions
+/// (MODEL.md 4B): slack (strain <= 0: no force), on the loading curve, on the plateau (the
+/// previous force kept) or on the unloading curve; and how many changed branch since the
+/// census before (PotentialObjective::edge_census).
+struct EdgeCensus {
+  std::int64_t slack = 0, loading = 0, plateau = 0, unloading = 0, changed = 0;
+  EdgeCensus& operator+=(const EdgeCensus& o) {
+    slack += o.slack;
+    loading += o.loading;
+    plateau += o.plateau;
+    unloading += o.unloading;
+    changed += o.changed;
+    return *this;
+  }
+};
+
 class PotentialObjective final : public StepObjective {
  public:
   explicit PotentialObjective(const StepContext& ctx);
@@ -28,6 +44,10 @@ class PotentialObjective final : public StepObjective {
   StepContext& context() override { return ctx_; }
   void begin_step(LoopRunner& run) override;
   void refresh_preconditioner(LoopRunner& run) override;
+  /// Counts the active edges by branch and remembers each one's; with `compare`, also those
+  /// whose branch differs from the last census (of this topology: a step's first census is
+  /// taken without). Diagnostics of the Newton log (SolverConfig::log_iterations).
+  EdgeCensus edge_census(LoopRunner& run, bool compare);
   void precondition(LoopRunner& run, Evaluation& e) override;
   Evaluation evaluate(LoopRunner& run) override;
   double update_direction(LoopRunner& run, double beta) override;
@@ -115,6 +135,8 @@ class PotentialObjective final : public StepObjective {
   TilePartials<ScalarSum> edge_partials_;
   TilePartials<ScalarSum> triple_partials_;
   TilePartials<ScalarSum> scalar_partials_;
+  TilePartials<EdgeCensus> census_partials_;
+  std::vector<std::uint8_t> edge_branch_;  ///< per element id: the last census's branch
   TilePartials<GatherSums> gather_partials_;
   TilePartials<GatherSums> precondition_partials_;
   std::unique_ptr<LinePreconditioner> lines_;

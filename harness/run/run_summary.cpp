@@ -161,13 +161,15 @@ std::string newton_log_csv(const std::vector<NewtonLogRow>& rows) {
   std::string out =
       "step,attempt,dt_s,iteration,rms,forcing,linear_iterations,linear_relative_residual,"
       "refinements,alpha,line_search_evaluations,rms_after_line_search,smoothed_particles,"
-      "rms_after\n";
+      "rms_after,edges_slack,edges_loading,edges_plateau,edges_unloading,edges_changed\n";
   for (const NewtonLogRow& row : rows) {
     const kernels::NewtonIterationRecord& r = row.iteration;
-    out += fmt::format("{},{},{:.9g},{},{:.9g},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g}\n",
+    out += fmt::format("{},{},{:.9g},{},{:.9g},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g},{},{:.9g},",
                        row.step, r.attempt, r.dt, r.iteration, r.rms, r.forcing,
                        r.linear_iterations, r.linear_relative_residual, r.refinements, r.alpha,
                        r.line_search_evaluations, r.rms_line_search, r.smoothed, r.rms_after);
+    out += fmt::format("{},{},{},{},{}\n", r.edges_slack, r.edges_loading, r.edges_plateau,
+                       r.edges_unloading, r.edges_changed);
   }
   return out;
 }

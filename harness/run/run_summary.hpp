@@ -91,7 +91,8 @@ std::string describe_event(const kernels::SceneEvent& event);
 /// `clothbench run --newton-log`: a header line, then one line per Newton iteration (step,
 /// attempt, dt_s, iteration, rms, forcing, linear_iterations, linear_relative_residual,
 /// refinements, alpha, line_search_evaluations, rms_after_line_search, smoothed_particles,
-/// rms_after; see kernels::NewtonIterationRecord).
+/// rms_after, edges_slack, edges_loading, edges_plateau, edges_unloading, edges_changed; see
+/// kernels::NewtonIterationRecord).
 std::string newton_log_csv(const std::vector<NewtonLogRow>& rows);
 /// Prints the summary block and the `Verification: PASSED/FAILED` line.
 void print_summary(const RunSummary& summary);

@@ -311,14 +311,15 @@ TEST_F(CommandOptions, RunNewtonLogWritesEveryNewtonIterationOfEveryStep) {
   EXPECT_EQ(line,
             "step,attempt,dt_s,iteration,rms,forcing,linear_iterations,linear_relative_residual,"
             "refinements,alpha,line_search_evaluations,rms_after_line_search,"
-            "smoothed_particles,rms_after");
+            "smoothed_particles,rms_after,edges_slack,edges_loading,edges_plateau,"
+            "edges_unloading,edges_changed");
   std::vector<std::vector<double>> rows;
   while (std::getline(in, line)) {
     std::vector<double> fields;
     std::stringstream cells(line);
     std::string cell;
     while (std::getline(cells, cell, ',')) fields.push_back(std::stod(cell));
-    ASSERT_EQ(fields.size(), 14u) << line;
+    ASSERT_EQ(fields.size(), 19u) << line;
     for (const double f : fields) EXPECT_TRUE(std::isfinite(f)) << line;
     rows.push_back(fields);
   }
@@ -343,6 +344,10 @@ TEST_F(CommandOptions, RunNewtonLogWritesEveryNewtonIterationOfEveryStep) {
       if (k > 0) {
         EXPECT_EQ(r[4], rows[row - 1][13]) << "row " << row;
       }
+      // Every active edge on one branch (the tiny cloth keeps its 2 x 21 x 20 edges), and
+      // no more changes than edges.
+      EXPECT_EQ(r[14] + r[15] + r[16] + r[17], 2.0 * 21 * 20) << "row " << row;
+      EXPECT_LE(r[18], 2.0 * 21 * 20) << "row " << row;
       linear += static_cast<int>(r[6]);
     }
     EXPECT_EQ(linear, step["linear_iterations"].get<int>()) << step.dump();

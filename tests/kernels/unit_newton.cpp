@@ -195,6 +195,7 @@ TEST(NewtonMinimiser, LogsEveryIterationWithoutChangingTheResult) {
   schedulers::OmpStaticDriver driver;
   const int refinements = kernels::effective_model_refinements(c.solver);
   int newton_iterations = 0;
+  std::int64_t changed = 0, taut = 0;
   for (int step = 0; step < 8; ++step) {
     const kernels::StepReport a = plain.step(driver);
     const kernels::StepReport b = logged.step(driver);
@@ -219,6 +220,13 @@ TEST(NewtonMinimiser, LogsEveryIterationWithoutChangingTheResult) {
       EXPECT_LE(r.rms_line_search, r.rms * 1e3) << "finite and of the step's size";
       linear += r.linear_iterations;
       smoothed += r.smoothed;
+      // Every active edge on one branch; the changes counted are some of them.
+      const std::int64_t edges = logged.diagnostics().active_edges;
+      EXPECT_EQ(r.edges_slack + r.edges_loading + r.edges_plateau + r.edges_unloading, edges);
+      EXPECT_GE(r.edges_changed, 0);
+      EXPECT_LE(r.edges_changed, edges);
+      changed += r.edges_changed;
+      taut = std::max(taut, r.edges_loading + r.edges_plateau + r.edges_unloading);
     }
     if (!m.newton_log.empty()) {
       EXPECT_EQ(m.newton_log.back().rms_after, kernels::MinimiserReport::rms(m.final));
@@ -229,6 +237,8 @@ TEST(NewtonMinimiser, LogsEveryIterationWithoutChangingTheResult) {
     newton_iterations += m.iterations;
   }
   EXPECT_GT(newton_iterations, 8) << "the drape needs Newton iterations";
+  EXPECT_GT(changed, 0) << "edges change branch as the cloth meets the obstacles";
+  EXPECT_GT(taut, 0) << "some edges carry tension";
   const std::vector<double>& x = plain.state().position;
   const std::vector<double>& y = logged.state().position;
   ASSERT_EQ(x.size(), y.size());
