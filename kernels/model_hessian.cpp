@@ -59,9 +59,11 @@ ModelHessian::ModelHessian(const ClothMesh& mesh) : dot_partials_(mesh.tile_coun
   inertia_.assign(6 * slots, 0.0);
   edge_.assign(4 * slots, 0.0);
   bending_.assign(2 * slots, 0.0);
+  bending_along_.assign(2 * slots, 0.0);
 }
 
-void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step) {
+void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step,
+                                     bool floor_along) {
   const ClothMesh& mesh = ctx.mesh;
   ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
@@ -94,8 +96,8 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
   const double zero_slopes[2] = {
       ctx.material.bending[0].curves(std::numeric_limits<double>::min()).upper_slope,
       ctx.material.bending[1].curves(std::numeric_limits<double>::min()).upper_slope};
-  const LoopBytes triple_bytes{.read = kTripleTermRead + bytes::kDouble + reach_read,
-                               .written = bytes::kDouble};
+  const LoopBytes triple_bytes{.read = kTripleTermRead + 2 * bytes::kDouble + reach_read,
+                               .written = 2 * bytes::kDouble};
   run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     // The band's slope on the branch the return mapping takes at the current curvature: zero
     // on the plateau (a straight triple with no previous moment lies on it). A straight triple
@@ -106,10 +108,14 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
     // energy is even in the turning angle, a concave loading curve or a plateau's constant
     // moment makes it grow like |kappa| beyond kappa0, and a direction that straightens the
     // triple meets the stiff start of the band (B + HB / kappa0) the tangent cannot see.
+    //
+    // Along the turning vector the floor M / kappa is kept only with `floor_along`; the
+    // tangent, the reach and the memory apply to both coefficients (model_hessian.hpp).
     const TripleTerm t = triple_term(ctx, id, x);
     const double zero_slope = zero_slopes[element_direction(id)];
     double slope = t.slope;
     if (!(t.curvature > 0.0) && st.triple_moment[id] > 0.0) slope = zero_slope;
+    double along = slope;
     if (t.curvature > 0.0 && t.moment > 0.0) {
       slope = std::max(slope, std::min(t.moment / t.curvature, zero_slope));
     }
@@ -117,12 +123,21 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
       const TripleTerm far = triple_term(ctx, id, reached);
       const double delta = far.curvature - t.curvature;
       if (std::abs(delta) * mesh.triple_rest[id] > kReachChange) {
-        slope = std::max(slope, (far.moment - t.moment) / delta);
+        const double secant = (far.moment - t.moment) / delta;
+        slope = std::max(slope, secant);
+        along = std::max(along, secant);
       }
     }
     double c = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
     c = std::max(c, kStiffnessMemory * bending_[id]);
     bending_[id] = c;
+    double c_along = c;
+    if (!floor_along) {
+      c_along = std::max(mesh.triple_width[id] * std::max(along, 0.0) / mesh.triple_rest[id],
+                         kStiffnessMemory * bending_along_[id]);
+      c_along = std::min(c_along, c);
+    }
+    bending_along_[id] = c_along;
   });
 }
 
@@ -150,7 +165,10 @@ Eigen::Matrix3d ModelHessian::element_diagonal(const StepContext& ctx, std::int6
     const Eigen::Matrix3d ja = (identity - arms.u1 * arms.u1.transpose()) * arms.inverse1;
     const Eigen::Matrix3d jb = (identity - arms.u2 * arms.u2.transpose()) * arms.inverse2;
     const Eigen::Matrix3d j = role == 0 ? ja : role == 2 ? jb : Eigen::Matrix3d(-(ja + jb));
-    h += c * j.transpose() * j;
+    const Eigen::Vector3d turning = arms.u2 - arms.u1;
+    const double length = turning.norm();
+    const Eigen::Vector3d k = length > 0.0 ? Eigen::Vector3d(turning / length) : turning;
+    h += bending_block(id, j.transpose(), j, length > 0.0 ? &k : nullptr);
   };
   for (int d = 0; d < 2; ++d) {
     const std::int64_t id = element_id(s, d);
@@ -187,10 +205,11 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   auto value = [&](std::int64_t k) { return vec3(v, k); };
   refresh_ghosts(run, mesh, v);
-  // Triples: q_t = c J v = c (P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1|), 3 per id. c, prev,
-  // next and the shares of x and v read; q written.
+  // Triples: q_t = C J v with J v = P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1| and
+  // C = c (I - k k^T) + c_along k k^T, 3 per id. c, c_along, prev, next and the shares of x and
+  // v read; q written.
   const LoopBytes triple_bytes{
-      .read = bytes::kDouble + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
+      .read = 2 * bytes::kDouble + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
       .written = bytes::kVector3};
   run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     auto q = vec3(st.triple_scratch, id);
@@ -201,8 +220,16 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
       return;
     }
     const Eigen::Vector3d vc = value(element_slot(id));
-    q = c * (project_out(arms.u2, value(mesh.next[id]) - vc) * arms.inverse2 -
-             project_out(arms.u1, vc - value(mesh.prev[id])) * arms.inverse1);
+    const Eigen::Vector3d jv = project_out(arms.u2, value(mesh.next[id]) - vc) * arms.inverse2 -
+                               project_out(arms.u1, vc - value(mesh.prev[id])) * arms.inverse1;
+    q = c * jv;
+    const double anisotropy = bending_along_[id] - c;
+    const Eigen::Vector3d turning = arms.u2 - arms.u1;
+    const double length = turning.norm();
+    if (anisotropy != 0.0 && length > 0.0) {
+      const Eigen::Vector3d k = turning / length;
+      q += anisotropy * k * k.dot(jv);
+    }
   });
   // Particles: what each node receives from its edges and triples, ghosts' shares included.
   auto node_product = [&](std::int64_t k) {
@@ -261,7 +288,9 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
 }
 
 std::size_t ModelHessian::memory_bytes() const {
-  return (inertia_.capacity() + edge_.capacity() + bending_.capacity()) * sizeof(double);
+  return (inertia_.capacity() + edge_.capacity() + bending_.capacity() +
+          bending_along_.capacity()) *
+         sizeof(double);
 }
 
 }  // namespace clothbench::kernels

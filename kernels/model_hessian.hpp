@@ -23,6 +23,16 @@
 // assembly does not reach (p then belongs to the previous step) but does remember. On the
 // box drape this halves Newton's iterations (kernels/MODEL-NOTES.md, "The model reaches
 // along its last step").
+// Bending's coefficient c is also at least the secant from zero curvature M / kappa (capped at
+// the slope at zero): on the plateau a triple's energy grows like M |kappa|. That floor is
+// exact across the turning vector (bending the triple another way lengthens |kappa|
+// quadratically) but too stiff along it, where the energy is linear: the lagged-diffusivity
+// model, which keeps a step that crosses the band's kinks short but converges only linearly
+// once none does. So the term is C = c (I - k k^T) + c_along k k^T with k = kappa / |kappa|
+// (blocks J^T C J): c_along = c (isotropic) while the line search cuts Newton's steps, and after
+// an iteration that took the full step c_along is the tangent, the reach and the memory without
+// the floor, at most c (assemble's `floor_along`, newton_minimiser.cpp; kernels/MODEL-NOTES.md,
+// "Bending along the turning vector").
 // Ghosts enter by the chain rule, as in the gradient: a vector is extended to every ghost by
 // the midpoint rule, and what a ghost receives goes half to each parent (ghost_nodes.hpp).
 //
@@ -50,8 +60,8 @@ std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* co
 class ModelHessian {
  public:
   /// What a particle loop over the model reads per element id of its slot (loop_bytes.hpp):
-  /// next, prev, both element flags, the edge's alpha and beta, the triple's c.
-  static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 3 * bytes::kDouble;
+  /// next, prev, both element flags, the edge's alpha and beta, the triple's two coefficients.
+  static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble;
   /// What sum_row reads of its particle: the inertia block, the position, its slot's elements.
   static constexpr double kRowRead =
       bytes::kBlockD + bytes::kVector3 + bytes::kIdsPerSlot * kElementRead;
@@ -65,10 +75,11 @@ class ModelHessian {
   /// `new_step`: the first assembly of a (sub-)step; later ones reach along the last Newton
   /// direction (ctx.state.direction, whose ghost entries they overwrite with midpoints) and
   /// remember the previous assembly's stiffness. `diagonal_written`: the bytes `diagonal`
-  /// writes per particle (its loop's LoopBytes, loop_bytes.hpp).
+  /// writes per particle (its loop's LoopBytes, loop_bytes.hpp). `floor_along`: bending keeps
+  /// the floor M / kappa along the turning vector as well (isotropic; see the top of this file).
   template <class Diagonal>
   void assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal, bool new_step = true,
-                double diagonal_written = 0.0);
+                double diagonal_written = 0.0, bool floor_along = true);
 
   /// y = H v on the free particles (0 elsewhere); returns v . y. v must be zero on every
   /// active particle that is not free; its ghost entries are overwritten (midpoints). Uses the
@@ -103,6 +114,7 @@ class ModelHessian {
   void forget() {
     std::fill(edge_.begin(), edge_.end(), 0.0);
     std::fill(bending_.begin(), bending_.end(), 0.0);
+    std::fill(bending_along_.begin(), bending_along_.end(), 0.0);
   }
 
   /// Row of free particle s of matrix(), summed on its own: its inertia and contact, then for
@@ -133,15 +145,17 @@ class ModelHessian {
   }
 
   /// Bending coefficient c of triple id as assembled (w dM/dkappa / rest, or what the secants
-  /// and the memory made of it; tests).
+  /// and the memory made of it; across the turning vector; tests).
   [[nodiscard]] double bending_stiffness(std::int64_t id) const { return bending_[id]; }
+  /// The same along the turning vector (c_along <= c; equal where the floor was kept along it).
+  [[nodiscard]] double bending_along(std::int64_t id) const { return bending_along_[id]; }
 
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
 
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Bytes per slot (memory estimates).
-  static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2) * sizeof(double);
+  static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2 + 2) * sizeof(double);
   /// An element's axial or bending stiffness keeps at least this share of what the previous
   /// assembly gave it (0.2-0.5 measured alike; 0.9 makes slack regions too stiff to move).
   static constexpr double kStiffnessMemory = 0.3;
@@ -155,20 +169,33 @@ class ModelHessian {
   void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal, bool reach,
                           double diagonal_written);
   /// Edge and triple coefficients at the current positions (two loops).
-  void assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step);
+  void assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step, bool floor_along);
   /// The full diagonal block of particle s without inertia and contact: edges and triples.
   [[nodiscard]] Eigen::Matrix3d element_diagonal(const StepContext& ctx, std::int64_t s) const;
+  /// Triple id's block between its nodes of Jacobians jr and jq: jr^T C jq (J symmetric),
+  /// C = c (I - k k^T) + c_along k k^T for the unit turning vector k (isotropic without one).
+  [[nodiscard]] Eigen::Matrix3d bending_block(std::int64_t id, const Eigen::Matrix3d& jr,
+                                              const Eigen::Matrix3d& jq,
+                                              const Eigen::Vector3d* k) const {
+    Eigen::Matrix3d block = bending_[id] * jr * jq;
+    const double anisotropy = bending_along_[id] - bending_[id];
+    if (k != nullptr && anisotropy != 0.0) {
+      block += anisotropy * (jr * *k) * (jq * *k).transpose();
+    }
+    return block;
+  }
 
   std::vector<double> inertia_;  ///< 6 per slot: m / dt^2 I + contact k n n^T
   std::vector<double> edge_;     ///< 2 per element id: alpha, beta
-  std::vector<double> bending_;  ///< 1 per element id: c
+  std::vector<double> bending_;  ///< 1 per element id: c, across the turning vector
+  std::vector<double> bending_along_;  ///< 1 per element id: c_along, along it
   TilePartials<ScalarSum> dot_partials_;
 };
 
 template <class Diagonal>
 void ModelHessian::assemble(LoopRunner& run, const StepContext& ctx, Diagonal&& diagonal,
-                            bool new_step, double diagonal_written) {
-  assemble_elements(run, ctx, new_step);
+                            bool new_step, double diagonal_written, bool floor_along) {
+  assemble_elements(run, ctx, new_step, floor_along);
   assemble_particles(run, ctx, diagonal, !new_step, diagonal_written);
 }
 

@@ -79,6 +79,22 @@ bool triple_jacobians(const ClothMesh& mesh, const ClothState& st, std::int64_t 
   return true;
 }
 
+/// The unit turning vector (e2/|e2| - e1/|e1|) of triple id; false at a straight triple or an
+/// arm of zero length.
+bool turning_direction(const ClothMesh& mesh, const ClothState& st, std::int64_t id,
+                       Eigen::Vector3d& k) {
+  const Eigen::Vector3d xc = vec3(st.position, element_slot(id));
+  const Eigen::Vector3d e1 = xc - vec3(st.position, mesh.prev[id]);
+  const Eigen::Vector3d e2 = vec3(st.position, mesh.next[id]) - xc;
+  const double n1 = e1.norm(), n2 = e2.norm();
+  if (!(n1 > 0.0 && n2 > 0.0)) return false;
+  k = e2 / n2 - e1 / n1;
+  const double length = k.norm();
+  if (!(length > 0.0)) return false;
+  k /= length;
+  return true;
+}
+
 /// Calls edge(r, w, id) and triple(r, w, id) for every element touching node r, then for
 /// every ghost hanging on r, recursively, at half the weight w: the terms of node r's row
 /// (ModelHessian::sum_row, ModelHessian::row_pattern).
@@ -183,8 +199,10 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
       add(b, a, -k);
     }
     if (mesh.triple_active[id] && bending_[id] > 0.0 && triple_jacobians(mesh, st, id, j, node)) {
+      Eigen::Vector3d turning;
+      const Eigen::Vector3d* k = turning_direction(mesh, st, id, turning) ? &turning : nullptr;
       for (int r = 0; r < 3; ++r) {
-        for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_[id] * j[r] * j[q]);
+        for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_block(id, j[r], j[q], k));
       }
     }
   }
@@ -223,7 +241,9 @@ void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_
         std::int64_t node[3];
         if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, j, node)) return;
         const int i = r == node[0] ? 0 : (r == node[1] ? 1 : 2);
-        for (int q = 0; q < 3; ++q) add(wr, node[q], bending_[id] * j[i] * j[q]);
+        Eigen::Vector3d turning;
+        const Eigen::Vector3d* k = turning_direction(mesh, st, id, turning) ? &turning : nullptr;
+        for (int q = 0; q < 3; ++q) add(wr, node[q], bending_block(id, j[i], j[q], k));
       });
 }
 

@@ -27,6 +27,9 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
   // Weighted residual norms |g|_W = sqrt(cost); the outer test is sqrt(cost / N) <= tolerance.
   double previous_norm = 0.0, forcing = settings.forcing_max;
   bool assembled = true;
+  // Whether the last line search took the full step (or more): the model no longer crosses the
+  // band's kinks, and bending's floor along the turning vector only slows it (model_hessian.hpp).
+  bool full_step = false;
   while (true) {
     run.set_iteration(static_cast<int>(report.iterations));  // the trace's iteration
     if (MinimiserReport::rms(current) <= settings.tolerance) {
@@ -41,7 +44,8 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
       report.reason = StopReason::time_budget;
       break;
     }
-    if (!assembled) objective.refresh_preconditioner(run);
+    const bool floor_along = !(settings.release_bending_floor && full_step);
+    if (!assembled) objective.assemble_newton(run, /*new_step=*/false, floor_along);
     assembled = false;
     const double norm = std::sqrt(current.cost);
     const double rms_start = MinimiserReport::rms(current);
@@ -70,7 +74,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
     // kinks this step would cross (an edge pulled out of slack, a triple straightened), and
     // its direction is the one searched.
     for (int r = 0; r < settings.model_refinements && linear.slope < 0.0; ++r) {
-      objective.refresh_preconditioner(run);
+      objective.assemble_newton(run, /*new_step=*/false, floor_along);
       solve();
       ++refinements_done;
     }
@@ -89,6 +93,7 @@ MinimiserReport newton_minimise_step(PotentialObjective& objective, LoopRunner& 
       break;
     }
     previous_norm = norm;
+    full_step = ls.alpha >= 1.0;
     current = ls.at;
     NewtonIterationRecord record;
     if (settings.log_iterations) {

@@ -28,8 +28,11 @@ struct NewtonSettings {
   int smoothing_sweeps = 0;
   double smoothing_threshold = 1e-3;
   /// Times a direction p is solved again after the model was assembled anew reaching along p
-  /// itself (PotentialObjective::refresh_preconditioner), before the line search.
+  /// itself (PotentialObjective::assemble_newton), before the line search.
   int model_refinements = 0;
+  /// After an iteration whose line search took the full step, the model drops bending's floor
+  /// M / kappa along the turning vector (model_hessian.hpp); false keeps it always.
+  bool release_bending_floor = true;
 };
 
 /// Minimises one (sub-)step of length dt (begin_step, then Newton). The report's `iterations`

@@ -9,7 +9,7 @@
 
 namespace clothbench::kernels {
 
-void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
+void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step, bool floor_along) {
   ClothState& st = ctx_.state;
   LinePreconditioner* lines = lines_.get();
   const Preconditioner kind = ctx_.config.solver.preconditioner;
@@ -27,7 +27,7 @@ void PotentialObjective::assemble_newton(LoopRunner& run, bool new_step) {
         }
         store_symmetric(st.preconditioner, s, inverse);
       },
-      new_step, bytes::kBlockF + (lines != nullptr ? bytes::kBlockD : 0.0));
+      new_step, bytes::kBlockF + (lines != nullptr ? bytes::kBlockD : 0.0), floor_along);
   if (vcycle_ != nullptr && vcycle_on_.load(std::memory_order_relaxed)) {
     vcycle_->factor(run, ctx_, newton_->hessian);
   }

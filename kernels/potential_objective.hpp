@@ -65,8 +65,9 @@ class PotentialObjective final : public StepObjective {
   /// Assembles the model Hessian and its preconditioner (block Jacobi, line solves on the
   /// model's blocks, or the multigrid over them) at the current positions;
   /// refresh_preconditioner calls it under Newton.
-  /// `new_step`: the step's first assembly (ModelHessian::assemble).
-  void assemble_newton(LoopRunner& run, bool new_step = false);
+  /// `new_step`: the step's first assembly; `floor_along`: bending's floor along the turning
+  /// vector too (ModelHessian::assemble).
+  void assemble_newton(LoopRunner& run, bool new_step = false, bool floor_along = true);
   /// Solves H p = -g inexactly by linear PCG (g: the gradient of the last evaluate, H the
   /// model assembled last), stopping when the weighted residual norm
   /// sqrt(sum |r_i|^2 / (m_i |g|)^2) is <= forcing times that of g, or after max_iterations.

@@ -398,6 +398,10 @@ std::vector<double> Simulation::contact_forces() const {
   return forces;
 }
 
+const ModelHessian* Simulation::model_hessian() const {
+  return newton_objective_ == nullptr ? nullptr : newton_objective_->model_hessian();
+}
+
 Simulation::VcycleWork Simulation::vcycle_work() const {
   VcycleWork work;
   const VcyclePreconditioner* v =

@@ -23,6 +23,7 @@
 
 namespace clothbench::kernels {
 
+class ModelHessian;
 class PotentialObjective;
 
 /// What one step did.
@@ -139,6 +140,8 @@ class Simulation {
   void set_broad_phase(bool on) { config_.contact.broad_phase = on; }
   /// Narrow-phase contact pairs tested / skipped over every evaluation so far.
   [[nodiscard]] const ContactWork& contact_work() const { return objective_->contact_work(); }
+  /// The Newton model as last assembled (null unless the method is Newton; tests).
+  [[nodiscard]] const ModelHessian* model_hessian() const;
   /// The V-cycle preconditioner's set-up so far (all zero without one).
   struct VcycleWork {
     std::int64_t factorisations = 0;  ///< one per model assembly (Newton iteration, refinement)

@@ -24,13 +24,14 @@ struct ModelFixture {
     kernels::LoopRunner r(driver, sim.mesh(), nullptr, kernels::Instrumentation::off, nullptr);
     f(r);
   }
-  /// Ghosts on their midpoints, the per-step constants, then H at the current positions.
-  void assemble() {
+  /// Ghosts on their midpoints, the per-step constants, then H at the current positions (as
+  /// within a step; `floor_along`: bending's floor along the turning vector too).
+  void assemble(bool floor_along = true) {
     schedulers::OmpStaticDriver driver;
     (void)sim.evaluate(driver, true);
     run([&](kernels::LoopRunner& r) {
       objective.prepare_history(r);
-      objective.refresh_preconditioner(r);
+      objective.assemble_newton(r, /*new_step=*/false, floor_along);
     });
   }
   std::vector<double> product(std::vector<double> v) {

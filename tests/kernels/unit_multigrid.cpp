@@ -323,20 +323,27 @@ TEST(Vcycle, CoarseOperatorsAreGalerkinProductsOfTheModel) {
   Fixture f(graded_cloth(true, Preconditioner::vcycle));
   const kernels::VcyclePreconditioner& v = graded_vcycle(f, 8);
   ASSERT_GE(v.levels(), 3);
-  // Level 0, summed by rows, is the model's matrix (summed element by element).
-  std::int64_t unknowns = 0;
-  const std::vector<std::int64_t> unknown = kernels::free_unknowns(f.ctx, &unknowns);
-  const Eigen::MatrixXd model =
-      Eigen::MatrixXd(f.objective.model_hessian()->matrix(f.ctx, unknown, unknowns));
-  const Eigen::MatrixXd level0 = Eigen::MatrixXd(v.level_operator(0));
-  ASSERT_EQ(level0.rows(), model.rows());
-  EXPECT_LE((level0 - model).cwiseAbs().maxCoeff(), 1e-12 * model.cwiseAbs().maxCoeff());
   EXPECT_GT(f.sim.mesh().ghost_count(), 0);
-  for (int k = 0; k + 1 < v.levels(); ++k) {
-    const Eigen::MatrixXd p = Eigen::MatrixXd(v.prolongation(k));
-    const Eigen::MatrixXd expected = p.transpose() * Eigen::MatrixXd(v.level_operator(k)) * p;
-    const Eigen::MatrixXd coarse = Eigen::MatrixXd(v.level_operator(k + 1));
-    EXPECT_LE((coarse - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+  // The isotropic model, then the same state with bending's floor released along the turning
+  // vector (rank-one terms per triple in level 0's rows).
+  for (const bool floor_along : {true, false}) {
+    if (!floor_along) f.assemble(/*floor_along=*/false);
+    // Level 0, summed by rows, is the model's matrix (summed element by element).
+    std::int64_t unknowns = 0;
+    const std::vector<std::int64_t> unknown = kernels::free_unknowns(f.ctx, &unknowns);
+    const Eigen::MatrixXd model =
+        Eigen::MatrixXd(f.objective.model_hessian()->matrix(f.ctx, unknown, unknowns));
+    const Eigen::MatrixXd level0 = Eigen::MatrixXd(v.level_operator(0));
+    ASSERT_EQ(level0.rows(), model.rows());
+    EXPECT_LE((level0 - model).cwiseAbs().maxCoeff(), 1e-12 * model.cwiseAbs().maxCoeff())
+        << "floor along " << floor_along;
+    for (int k = 0; k + 1 < v.levels(); ++k) {
+      const Eigen::MatrixXd p = Eigen::MatrixXd(v.prolongation(k));
+      const Eigen::MatrixXd expected = p.transpose() * Eigen::MatrixXd(v.level_operator(k)) * p;
+      const Eigen::MatrixXd coarse = Eigen::MatrixXd(v.level_operator(k + 1));
+      EXPECT_LE((coarse - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
+          << "floor along " << floor_along;
+    }
   }
 }
 
