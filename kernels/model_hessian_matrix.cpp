@@ -60,38 +60,37 @@ bool edge_stiffness(const ClothMesh& mesh, const ClothState& st, std::int64_t id
   return true;
 }
 
-/// The turning vector's Jacobians of triple id by its nodes (previous, centre, next) and the
-/// nodes; false when an arm has zero length.
+/// What a triple's blocks need (ModelHessian::bending_block): the turning vector's Jacobians
+/// by the triple's nodes (previous, centre, next), the nodes, and the unit turning vector.
+struct TripleJacobians {
+  Eigen::Matrix3d j[3];
+  std::int64_t node[3];
+  Eigen::Vector3d turning;  ///< (e2/|e2| - e1/|e1|) normalised; unset at a straight triple
+  bool straight = true;     ///< the arms are parallel: the turning vector has no direction
+  [[nodiscard]] const Eigen::Vector3d* turning_or_null() const {
+    return straight ? nullptr : &turning;
+  }
+};
+
+/// Fills `t` for triple id; false when an arm has zero length.
 bool triple_jacobians(const ClothMesh& mesh, const ClothState& st, std::int64_t id,
-                      Eigen::Matrix3d j[3], std::int64_t node[3]) {
+                      TripleJacobians& t) {
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
-  node[0] = mesh.prev[id];
-  node[1] = element_slot(id);
-  node[2] = mesh.next[id];
-  const Eigen::Vector3d e1 = vec3(st.position, node[1]) - vec3(st.position, node[0]);
-  const Eigen::Vector3d e2 = vec3(st.position, node[2]) - vec3(st.position, node[1]);
+  t.node[0] = mesh.prev[id];
+  t.node[1] = element_slot(id);
+  t.node[2] = mesh.next[id];
+  const Eigen::Vector3d e1 = vec3(st.position, t.node[1]) - vec3(st.position, t.node[0]);
+  const Eigen::Vector3d e2 = vec3(st.position, t.node[2]) - vec3(st.position, t.node[1]);
   const double n1 = e1.norm(), n2 = e2.norm();
   if (!(n1 > 0.0 && n2 > 0.0)) return false;
   const Eigen::Vector3d u1 = e1 / n1, u2 = e2 / n2;
-  j[0] = (identity - u1 * u1.transpose()) / n1;
-  j[2] = (identity - u2 * u2.transpose()) / n2;
-  j[1] = -(j[0] + j[2]);
-  return true;
-}
-
-/// The unit turning vector (e2/|e2| - e1/|e1|) of triple id; false at a straight triple or an
-/// arm of zero length.
-bool turning_direction(const ClothMesh& mesh, const ClothState& st, std::int64_t id,
-                       Eigen::Vector3d& k) {
-  const Eigen::Vector3d xc = vec3(st.position, element_slot(id));
-  const Eigen::Vector3d e1 = xc - vec3(st.position, mesh.prev[id]);
-  const Eigen::Vector3d e2 = vec3(st.position, mesh.next[id]) - xc;
-  const double n1 = e1.norm(), n2 = e2.norm();
-  if (!(n1 > 0.0 && n2 > 0.0)) return false;
-  k = e2 / n2 - e1 / n1;
-  const double length = k.norm();
-  if (!(length > 0.0)) return false;
-  k /= length;
+  t.j[0] = (identity - u1 * u1.transpose()) / n1;
+  t.j[2] = (identity - u2 * u2.transpose()) / n2;
+  t.j[1] = -(t.j[0] + t.j[2]);
+  t.turning = u2 - u1;
+  const double length = t.turning.norm();
+  t.straight = !(length > 0.0);
+  if (!t.straight) t.turning /= length;
   return true;
 }
 
@@ -187,8 +186,8 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
     if (unknown_of_slot[s] >= 0) add(s, s, load_block(inertia_, s));
   }
   const std::int64_t ids = 2 * mesh.slot_count();
-  Eigen::Matrix3d k, j[3];
-  std::int64_t node[3];
+  Eigen::Matrix3d k;
+  TripleJacobians t;
   for (std::int64_t id = 0; id < ids; ++id) {
     if (mesh.edge_active[id] &&
         edge_stiffness(mesh, st, id, edge_[2 * id], edge_[2 * id + 1], k)) {
@@ -198,11 +197,12 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
       add(a, b, -k);
       add(b, a, -k);
     }
-    if (mesh.triple_active[id] && bending_[id] > 0.0 && triple_jacobians(mesh, st, id, j, node)) {
-      Eigen::Vector3d turning;
-      const Eigen::Vector3d* k = turning_direction(mesh, st, id, turning) ? &turning : nullptr;
+    if (mesh.triple_active[id] && bending_[id] > 0.0 && triple_jacobians(mesh, st, id, t)) {
+      const Eigen::Vector3d* turning = t.turning_or_null();
       for (int r = 0; r < 3; ++r) {
-        for (int q = 0; q < 3; ++q) add(node[r], node[q], bending_block(id, j[r], j[q], k));
+        for (int q = 0; q < 3; ++q) {
+          add(t.node[r], t.node[q], bending_block(id, t.j[r], t.j[q], turning));
+        }
       }
     }
   }
@@ -237,13 +237,11 @@ void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_
         add(wr, r == element_slot(id) ? mesh.next[id] : element_slot(id), -k);
       },
       [&](std::int64_t r, double wr, std::int64_t id) {
-        Eigen::Matrix3d j[3];
-        std::int64_t node[3];
-        if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, j, node)) return;
-        const int i = r == node[0] ? 0 : (r == node[1] ? 1 : 2);
-        Eigen::Vector3d turning;
-        const Eigen::Vector3d* k = turning_direction(mesh, st, id, turning) ? &turning : nullptr;
-        for (int q = 0; q < 3; ++q) add(wr, node[q], bending_block(id, j[i], j[q], k));
+        TripleJacobians t;
+        if (!(bending_[id] > 0.0) || !triple_jacobians(mesh, st, id, t)) return;
+        const int i = r == t.node[0] ? 0 : (r == t.node[1] ? 1 : 2);
+        const Eigen::Vector3d* k = t.turning_or_null();
+        for (int q = 0; q < 3; ++q) add(wr, t.node[q], bending_block(id, t.j[i], t.j[q], k));
       });
 }
 

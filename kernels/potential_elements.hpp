@@ -3,6 +3,7 @@
 // analytic loops and the local numeric gradient share one definition.
 #pragma once
 
+#include <cstdint>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -32,6 +33,17 @@ inline constexpr double kGatherElasticRead =
     bytes::kVector3 +
     bytes::kIdsPerSlot * (2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble);
 
+/// The branch of its hysteresis band an element in tension (or bending) is on, decided by the
+/// curves at its strain and its previous force: loading where the previous force is not below
+/// the loading curve, the plateau where it is not below the unloading curve, else unloading.
+/// `slack` (no strain) is for the caller to decide; fast_return_map and the edge census of
+/// Newton's log both take their branch from here.
+enum class BandBranch : std::uint8_t { slack = 0, loading = 1, plateau = 2, unloading = 3 };
+inline BandBranch band_branch(const BandCurves& c, double previous) {
+  if (!(previous < c.upper)) return BandBranch::loading;
+  return !(previous < c.lower) ? BandBranch::plateau : BandBranch::unloading;
+}
+
 /// Return mapping evaluated regime first: the curves at `strain` (one log and two exp for
 /// tension, one expm1 for bending) decide the branch, and the breakpoints (curve inverses) are
 /// only needed off the loading branch. `cached` holds {lower, upper} breakpoints computed once
@@ -43,7 +55,8 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
   ReturnMapped r;
   if (!(strain > 0.0)) return r;
   const BandCurves c = band.curves(strain);
-  if (!(previous < c.upper)) {  // loading branch
+  const BandBranch branch = band_branch(c, previous);
+  if (branch == BandBranch::loading) {
     r.force = c.upper;
     r.slope = c.upper_slope;
     if constexpr (tension) {
@@ -71,7 +84,7 @@ inline ReturnMapped fast_return_map(const Band& band, double previous, double st
   } else {
     lower_potential = band.loading_integral(lower);
   }
-  if (!(previous < c.lower)) {  // plateau: the previous force is kept
+  if (branch == BandBranch::plateau) {  // the previous force is kept
     r.force = previous;
     r.potential = lower_potential + previous * (strain - lower);
     return r;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kernels/potential_elements.hpp"
 #include "kernels/potential_objective.hpp"
 
 namespace clothbench::kernels {
@@ -59,22 +60,20 @@ EdgeCensus PotentialObjective::edge_census(LoopRunner& run, bool compare) {
         const Eigen::Vector3d e =
             vec3(st.position, mesh.next[id]) - vec3(st.position, element_slot(id));
         const double strain = e.norm() / mesh.edge_rest[id] - 1.0;
-        std::uint8_t branch = 0;  // slack
+        BandBranch branch = BandBranch::slack;
         if (strain > 0.0) {
-          // The return mapping's own tests (fast_return_map): loading where the previous force
-          // is not below the loading curve, the plateau where not below the unloading curve.
-          const BandCurves c = ctx_.material.tensile[element_direction(id)].curves(strain);
-          const double previous = st.edge_force[id];
-          branch = !(previous < c.upper) ? 1 : (!(previous < c.lower) ? 2 : 3);
+          branch = band_branch(ctx_.material.tensile[element_direction(id)].curves(strain),
+                               st.edge_force[id]);
         }
         switch (branch) {
-          case 0: ++acc.slack; break;
-          case 1: ++acc.loading; break;
-          case 2: ++acc.plateau; break;
-          default: ++acc.unloading; break;
+          case BandBranch::slack: ++acc.slack; break;
+          case BandBranch::loading: ++acc.loading; break;
+          case BandBranch::plateau: ++acc.plateau; break;
+          case BandBranch::unloading: ++acc.unloading; break;
         }
-        if (compare && edge_branch_[id] != branch) ++acc.changed;
-        edge_branch_[id] = branch;
+        const auto code = static_cast<std::uint8_t>(branch);
+        if (compare && edge_branch_[id] != code) ++acc.changed;
+        edge_branch_[id] = code;
       });
   return run.reduce(census_partials_);
 }

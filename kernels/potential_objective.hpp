@@ -102,6 +102,10 @@ class PotentialObjective final : public StepObjective {
   /// Each slot's smoothing colour (-1: not free) and the slots of every colour (tests).
   [[nodiscard]] const std::vector<int>& smoothing_colours() const { return smoothing_colour_; }
   [[nodiscard]] std::size_t smoothing_colour_count() const { return smoothing_lists_.size(); }
+  /// Per colour, the ghosts its sweep refreshes (those hanging on its slots).
+  [[nodiscard]] const std::vector<std::vector<std::int64_t>>& smoothing_ghosts() const {
+    return smoothing_ghosts_;
+  }
 
  private:
   /// Phi restricted to the terms that involve particle s, with s moved to `xs`
@@ -154,6 +158,9 @@ class PotentialObjective final : public StepObjective {
   /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call).
   std::vector<int> smoothing_colour_;
   std::vector<std::vector<std::int64_t>> smoothing_lists_;
+  /// Per colour, the ghosts a move of its slots moves (hanging on them, directly or through
+  /// other ghosts), each once, in slot order: all a colour's sweep has to refresh.
+  std::vector<std::vector<std::int64_t>> smoothing_ghosts_;
   std::vector<int> smoothing_moved_;
   TopologyKey smoothing_topology_;  ///< the mesh the colouring was made for
 };

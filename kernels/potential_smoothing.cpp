@@ -75,6 +75,20 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
       smoothing_lists_[colour].push_back(s);
       smoothing_colour_[s] = static_cast<int>(colour);
     }
+    // Each colour's ghosts: those hanging, directly or through other ghosts, on its slots.
+    smoothing_ghosts_.assign(smoothing_lists_.size(), {});
+    for (std::size_t c = 0; c < smoothing_lists_.size(); ++c) {
+      std::vector<std::int64_t>& ghosts = smoothing_ghosts_[c];
+      auto collect = [&](auto&& self, std::int64_t node) -> void {
+        for_each_ghost_child(mesh, node, [&](std::int64_t child) {
+          ghosts.push_back(child);
+          self(self, child);
+        });
+      };
+      for (const std::int64_t s : smoothing_lists_[c]) collect(collect, s);
+      std::sort(ghosts.begin(), ghosts.end());
+      ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
+    }
     smoothing_moved_.assign(static_cast<std::size_t>(slots), 0);
     smoothing_topology_.take(mesh);
   }  // the single's closing barrier publishes the colouring
@@ -113,7 +127,8 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
     // least.
     const LoopBytes colour_bytes{.read =
                                      2 * bytes::kDouble + (sweep == 0 ? bytes::kVector3 : kMark)};
-    for (const std::vector<std::int64_t>& colour : smoothing_lists_) {
+    for (std::size_t c = 0; c < smoothing_lists_.size(); ++c) {
+      const std::vector<std::int64_t>& colour = smoothing_lists_[c];
       run.for_index(static_cast<std::int64_t>(colour.size()), colour_bytes, [&](std::int64_t k) {
         const std::int64_t s = colour[k];
         const double weight = mesh.mass[s] * g_ref;
@@ -149,7 +164,8 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
           }
         }
       });
-      refresh_ghosts(run, mesh, st.position);
+      // Only the ghosts on this colour's slots can have moved.
+      refresh_listed_ghosts(run, mesh, smoothing_ghosts_[c], st.position);
     }
   }
   run.for_each<ScalarSum>(ElementKind::particles, &scalar_partials_, LoopBytes{.read = kMark},

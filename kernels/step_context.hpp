@@ -159,16 +159,27 @@ inline Eigen::Vector3d apply_symmetric(const std::vector<float>& in, std::int64_
           p[2] * g.x() + p[4] * g.y() + p[5] * g.z()};
 }
 
+/// Per ghost refreshed: its flags, prev and next along its direction and both parents' values
+/// (in full: the loop does not visit their owners) read; its own value written.
+inline constexpr LoopBytes kGhostRefreshBytes{
+    .read = bytes::kFlag + 2 * bytes::kIndex + 2 * bytes::kVector3, .written = bytes::kVector3};
+
 /// Puts every ghost of an interleaved xyz array (positions, adjoints) on the midpoint of its
 /// parents. Skipped entirely on a mesh without ghosts (no loop, no barrier).
 inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::vector<double>& values) {
   if (mesh.ghost_count() == 0) return;
-  // Per ghost: its flags, prev and next along its direction and both parents' values (in
-  // full: the loop does not visit their owners) read; its own value written.
-  const LoopBytes ghost_bytes{.read = bytes::kFlag + 2 * bytes::kIndex + 2 * bytes::kVector3,
-                              .written = bytes::kVector3};
-  run.for_each(ElementKind::ghosts, ghost_bytes,
+  run.for_each(ElementKind::ghosts, kGhostRefreshBytes,
                [&](std::int64_t g) { vec3(values, g) = node_value(mesh, values, g); });
+}
+
+/// As refresh_ghosts, for the listed ghosts only: those whose parents moved. Skipped entirely
+/// (no loop, no barrier) when the list is empty.
+inline void refresh_listed_ghosts(LoopRunner& run, const ClothMesh& mesh,
+                                  const std::vector<std::int64_t>& ghosts,
+                                  std::vector<double>& values) {
+  if (ghosts.empty()) return;
+  run.for_index(static_cast<std::int64_t>(ghosts.size()), kGhostRefreshBytes,
+                [&](std::int64_t k) { vec3(values, ghosts[k]) = node_value(mesh, values, ghosts[k]); });
 }
 
 /// The share of the velocity a (sub-)step of length h keeps: damping is a rate (MODEL.md 5),

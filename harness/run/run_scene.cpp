@@ -191,7 +191,7 @@ int run_scene(const RunOptions& options) {
                                 {"scheduler", driver->name()},
                                 {"threads", threads},
                                 {"steps", summary.steps.size()},
-                                {"state_digest", fnv1a64_hex(state_bytes(simulation))}};
+                                {"state_digest", state_digest(simulation)}};
       context.update(trace_models);
       write_trace_outputs(*trace, *options.trace_file, context, summary.wall_seconds,
                           options.trace_step);

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
+#include <string_view>
 
 #include "harness/scene/scene.hpp"
 
@@ -13,26 +13,53 @@ namespace clothbench::harness {
 
 namespace {
 
-template <class T>
-void append_bytes(std::string& out, const std::vector<T>& values) {
-  const std::size_t bytes = values.size() * sizeof(T);
-  const std::size_t at = out.size();
-  out.resize(at + bytes);
-  if (bytes > 0) std::memcpy(out.data() + at, values.data(), bytes);
+/// Calls f(bytes) on each array of the state, in the order state_bytes() concatenates them.
+template <class F>
+void for_each_state_array(const kernels::Simulation& simulation, F&& f) {
+  const kernels::ClothState& state = simulation.state();
+  for (const std::vector<double>* values :
+       {&state.position, &state.edge_force, &state.triple_moment}) {
+    f(std::string_view(reinterpret_cast<const char*>(values->data()),
+                       values->size() * sizeof(double)));
+  }
 }
 
 }  // namespace
 
 std::string state_bytes(const kernels::Simulation& simulation) {
-  const kernels::ClothState& state = simulation.state();
   std::string bytes;
-  // One allocation of the final size (growing by doubling held up to twice the state).
-  bytes.reserve((state.position.size() + state.edge_force.size() + state.triple_moment.size()) *
-                sizeof(double));
-  append_bytes(bytes, state.position);
-  append_bytes(bytes, state.edge_force);
-  append_bytes(bytes, state.triple_moment);
+  std::size_t size = 0;
+  for_each_state_array(simulation, [&](std::string_view array) { size += array.size(); });
+  bytes.reserve(size);  // one allocation of the final size
+  for_each_state_array(simulation, [&](std::string_view array) { bytes.append(array); });
   return bytes;
+}
+
+std::string state_digest(const kernels::Simulation& simulation) {
+  Fnv1a64 hash;
+  for_each_state_array(simulation, [&](std::string_view array) { hash.add(array); });
+  return hash.hex();
+}
+
+ReferenceComparison compare_state(const kernels::Simulation& simulation,
+                                  const std::string& reference_bytes) {
+  ReferenceComparison c;
+  c.reference_digest = fnv1a64_hex(reference_bytes);
+  bool differs = false;
+  for_each_state_array(simulation, [&](std::string_view array) {
+    const std::size_t at = c.size;
+    c.size += array.size();
+    if (differs || at >= reference_bytes.size()) return;
+    const std::string_view reference =
+        std::string_view(reference_bytes).substr(at, array.size());
+    const auto [mine, theirs] =
+        std::mismatch(array.begin(), array.begin() + static_cast<std::ptrdiff_t>(reference.size()),
+                      reference.begin());
+    c.first_difference = at + static_cast<std::size_t>(mine - array.begin());
+    differs = mine != array.begin() + static_cast<std::ptrdiff_t>(reference.size());
+  });
+  c.identical = !differs && c.size == reference_bytes.size();
+  return c;
 }
 
 StateFigures measure_state(const kernels::Simulation& simulation,
@@ -49,18 +76,8 @@ StateFigures measure_state(const kernels::Simulation& simulation,
   f.particle_penetration =
       simulation.obstacles().empty() ? 0.0 : std::max(0.0, -d.min_particle_distance);
   if (reference_bytes != nullptr) {
-    const std::string bytes = state_bytes(simulation);
-    f.state_digest = fnv1a64_hex(bytes);
-    ReferenceComparison c;
-    c.size = bytes.size();
-    c.reference_digest = fnv1a64_hex(*reference_bytes);
-    const std::size_t common = std::min(bytes.size(), reference_bytes->size());
-    while (c.first_difference < common &&
-           bytes[c.first_difference] == (*reference_bytes)[c.first_difference]) {
-      ++c.first_difference;
-    }
-    c.identical = bytes.size() == reference_bytes->size() && c.first_difference == common;
-    f.reference = c;
+    f.state_digest = state_digest(simulation);
+    f.reference = compare_state(simulation, *reference_bytes);
   }
   return f;
 }
@@ -101,7 +118,7 @@ std::vector<std::string> judge_state(const StateFigures& f) {
 StateFigures verify_state(const kernels::Simulation& simulation, int step,
                           Verification& verification, const std::string* reference_bytes) {
   StateFigures f = measure_state(simulation, simulation.diagnostics(), reference_bytes);
-  if (f.state_digest.empty()) f.state_digest = fnv1a64_hex(state_bytes(simulation));
+  if (f.state_digest.empty()) f.state_digest = state_digest(simulation);
   for (std::string& failure : judge_state(f)) {
     verification.fail(fmt::format("step {}: {}", step, failure));
   }

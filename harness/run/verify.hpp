@@ -57,6 +57,14 @@ struct StateFigures {
 /// count: positions, edge forces and triple moments (MODEL.md section 7, Determinism).
 std::string state_bytes(const kernels::Simulation& simulation);
 
+/// FNV-1a 64 of state_bytes(simulation), hashed array by array without making that copy (56 MB
+/// at the paper's 1001^2).
+std::string state_digest(const kernels::Simulation& simulation);
+
+/// How the state's bytes compare with `reference_bytes` (a state_bytes()), read in place.
+ReferenceComparison compare_state(const kernels::Simulation& simulation,
+                                  const std::string& reference_bytes);
+
 /// Measures the figures of the current state of `simulation` from its diagnostics `d`; with
 /// `reference_bytes` also its digest and the comparison with the reference.
 StateFigures measure_state(const kernels::Simulation& simulation,

@@ -4,6 +4,7 @@
 // from building and checking the configuration (scene_loader.cpp), as pbrt-v4 does.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -67,6 +68,23 @@ std::vector<std::string> fabric_preset_names(const std::filesystem::path& preset
 /// valid ones).
 kernels::KesParameters load_fabric_preset(const std::filesystem::path& presets_file,
                                           std::string_view name);
+
+/// FNV-1a 64-bit hash fed piece by piece: hashing pieces in turn gives the hash of their
+/// concatenation, without making it.
+class Fnv1a64 {
+ public:
+  void add(std::string_view bytes) {
+    for (const char c : bytes) {
+      hash_ ^= static_cast<unsigned char>(c);
+      hash_ *= 0x100000001b3ull;
+    }
+  }
+  /// The hash so far as 16 lower-case hex digits.
+  [[nodiscard]] std::string hex() const;
+
+ private:
+  std::uint64_t hash_ = 0xcbf29ce484222325ull;
+};
 
 /// FNV-1a 64-bit hash of `bytes` as 16 lower-case hex digits.
 std::string fnv1a64_hex(std::string_view bytes);

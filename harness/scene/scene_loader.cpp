@@ -424,13 +424,12 @@ void check_cloth_starts_outside(const kernels::SimulationConfig& simulation,
 
 }  // namespace
 
+std::string Fnv1a64::hex() const { return fmt::format("{:016x}", hash_); }
+
 std::string fnv1a64_hex(std::string_view bytes) {
-  std::uint64_t hash = 0xcbf29ce484222325ull;
-  for (const char c : bytes) {
-    hash ^= static_cast<unsigned char>(c);
-    hash *= 0x100000001b3ull;
-  }
-  return fmt::format("{:016x}", hash);
+  Fnv1a64 hash;
+  hash.add(bytes);
+  return hash.hex();
 }
 
 std::filesystem::path default_presets_file() {

@@ -71,7 +71,8 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
   struct Traced {
     double seconds = 0.0;
     std::unique_ptr<kernels::ChunkTrace> trace;
-    std::string bytes;
+    std::string digest;
+    bool identical = false;  // the final state equals the reference's bytes
   };
   std::vector<Traced> traced;
   std::vector<double> all_seconds;
@@ -85,7 +86,8 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
       t.seconds +=
           simulation.step(driver, kernels::Instrumentation::off, nullptr, t.trace.get()).seconds;
     }
-    t.bytes = state_bytes(simulation);
+    t.digest = state_digest(simulation);
+    t.identical = compare_state(simulation, reference_bytes).identical;
     all_seconds.push_back(t.seconds);
     const bool large = static_cast<double>(t.trace->chunk_count()) *
                            static_cast<double>(sizeof(kernels::ChunkRecord)) >
@@ -99,7 +101,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
             [&](std::size_t a, std::size_t b) { return traced[a].seconds < traced[b].seconds; });
   const Traced& kept = traced[order[(order.size() - 1) / 2]];
   const bool identical = std::all_of(traced.begin(), traced.end(),
-                                     [&](const Traced& t) { return t.bytes == reference_bytes; });
+                                     [](const Traced& t) { return t.identical; });
   nlohmann::json context = {{"machine", machine_context()},
                             {"scene", scene.name},
                             {"scene_file", scene.file.string()},
@@ -108,7 +110,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
                             {"steps", scene.steps},
                             {"traced_runs", traced.size()},
                             {"traced_runs_seconds", all_seconds},
-                            {"state_digest", fnv1a64_hex(kept.bytes)},
+                            {"state_digest", kept.digest},
                             {"bit_identical_to_reference", identical}};
   context.update(models);
   write_trace_outputs(*kept.trace, dir / row_trace_file_name(driver.name(), threads), context,

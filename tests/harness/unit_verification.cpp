@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -220,6 +221,52 @@ harness::MeasuredRun measured(const std::string& scheduler, int threads, int ste
 std::vector<harness::MeasuredRun> undisturbed(std::vector<harness::MeasuredRun> runs) {
   for (harness::MeasuredRun& r : runs) r.disturbance = harness::Disturbance{};
   return runs;
+}
+
+/// The first byte where `a` and `b` differ (their common length if one is a prefix).
+std::size_t naive_first_difference(const std::string& a, const std::string& b) {
+  std::size_t i = 0;
+  while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
+  return i;
+}
+
+TEST(StateDigest, IsTheHashOfTheStateBytesAndComparesInPlace) {
+  omp_set_num_threads(1);
+  kernels::Simulation sim(sheet_on_box());
+  simulate_passing(sim, 2);
+  const std::string bytes = harness::state_bytes(sim);
+  const kernels::ClothState& state = sim.state();
+  const std::size_t positions = state.position.size() * sizeof(double);
+  const std::size_t forces = state.edge_force.size() * sizeof(double);
+  ASSERT_EQ(bytes.size(), positions + forces + state.triple_moment.size() * sizeof(double));
+  EXPECT_EQ(harness::state_digest(sim), harness::fnv1a64_hex(bytes));
+
+  const harness::ReferenceComparison same = harness::compare_state(sim, bytes);
+  EXPECT_TRUE(same.identical);
+  EXPECT_EQ(same.size, bytes.size());
+  EXPECT_EQ(same.first_difference, bytes.size());
+  EXPECT_EQ(same.reference_digest, harness::fnv1a64_hex(bytes));
+
+  // One flipped bit in each array, on both sides of the boundaries between them.
+  for (const std::size_t at : {std::size_t{0}, positions - 1, positions, positions + forces - 1,
+                               positions + forces, bytes.size() - 1}) {
+    std::string reference = bytes;
+    reference[at] = static_cast<char>(reference[at] ^ 0x10);
+    const harness::ReferenceComparison c = harness::compare_state(sim, reference);
+    EXPECT_FALSE(c.identical) << at;
+    EXPECT_EQ(c.first_difference, at);
+    EXPECT_EQ(c.size, bytes.size());
+  }
+  // References of another length: a prefix of the state, and the state with bytes appended,
+  // the shorter one ending inside each array.
+  for (const std::size_t length : {std::size_t{0}, positions / 2, positions, positions + 8,
+                                   positions + forces + 3, bytes.size() + 8}) {
+    std::string reference = bytes.substr(0, std::min(length, bytes.size()));
+    reference.resize(length, '\0');
+    const harness::ReferenceComparison c = harness::compare_state(sim, reference);
+    EXPECT_FALSE(c.identical) << length;
+    EXPECT_EQ(c.first_difference, naive_first_difference(bytes, reference)) << length;
+  }
 }
 
 TEST(SweepVerification, OneFlippedByteOfTheReferenceFails) {

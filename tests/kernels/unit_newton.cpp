@@ -71,6 +71,38 @@ void expect_valid_colouring(ModelFixture& f) {
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
     EXPECT_EQ(colour[s] >= 0, f.ctx.is_free(s)) << "slot " << s;
   }
+  // Each colour's ghost list: exactly the ghosts one of its particles moves, each once, in
+  // slot order.
+  const auto& listed = f.objective.smoothing_ghosts();
+  ASSERT_EQ(listed.size(), f.objective.smoothing_colour_count());
+  std::vector<std::vector<std::int64_t>> expected(listed.size());
+  for (std::int64_t g = 0; g < mesh.slot_count(); ++g) {
+    if (kernels::ghost_direction(mesh.flags[g]) < 0) continue;
+    std::vector<std::int64_t> owners;
+    owners_of(mesh, g, owners);
+    std::vector<int> colours;
+    for (std::int64_t k : owners) {
+      if (colour[k] >= 0) colours.push_back(colour[k]);
+    }
+    std::sort(colours.begin(), colours.end());
+    colours.erase(std::unique(colours.begin(), colours.end()), colours.end());
+    for (int c : colours) expected[static_cast<std::size_t>(c)].push_back(g);
+  }
+  EXPECT_EQ(listed, expected);
+}
+
+/// Every ghost of `sim` sits exactly (bit for bit) on the midpoint of its parents.
+void expect_ghosts_on_midpoints(const kernels::Simulation& sim) {
+  const kernels::ClothMesh& mesh = sim.mesh();
+  const std::vector<double>& x = sim.state().position;
+  int ghosts = 0;
+  for (std::int64_t g = 0; g < mesh.slot_count(); ++g) {
+    if (kernels::ghost_direction(mesh.flags[g]) < 0) continue;
+    ++ghosts;
+    const Eigen::Vector3d midpoint = kernels::node_value(mesh, x, g);
+    EXPECT_EQ(kernels::vec3(x, g), midpoint) << "ghost " << g;
+  }
+  EXPECT_GT(ghosts, 0);
 }
 
 TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFalls) {
@@ -90,6 +122,7 @@ TEST(NonlinearSmoothing, NoElementMovesWithTwoParticlesOfOneColourAndPhiOnlyFall
       after = f.objective.evaluate(r);
     });
     expect_valid_colouring(f);
+    expect_ghosts_on_midpoints(f.sim);  // each colour refreshed the ghosts its moves moved
     EXPECT_GT(moved, 0) << "seed " << seed;
     EXPECT_LT(after.value, before.value) << "seed " << seed;
     EXPECT_LT(after.cost, before.cost) << "seed " << seed << ": the residual falls too";
