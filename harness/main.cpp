@@ -27,6 +27,7 @@
 
 #include "harness/compare/compare_command.hpp"
 #include "harness/experiment/experiment.hpp"
+#include "harness/machine/allocator.hpp"
 #include "harness/machine/machine_context.hpp"
 #include "harness/predict/predict_command.hpp"
 #include "harness/report/sweep_table.hpp"
@@ -70,6 +71,7 @@ int check_scene(const std::filesystem::path& file) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  clothbench::harness::configure_allocator();  // before anything large is allocated
   CLI::App app{"clothbench: OpenMP loop-scheduling benchmark on a KES cloth simulation with AMRC"};
   app.set_version_flag("--version", clothbench::harness::version_string());
   app.require_subcommand(1);

@@ -1,6 +1,7 @@
 // Machine context: hwloc topology, uname, compiler/build, OpenMP runtime and settings.
 #include "harness/machine/machine_context.hpp"
 
+#include "harness/machine/allocator.hpp"
 #include "harness/machine/git_revision.hpp"
 
 #include <fmt/format.h>
@@ -251,7 +252,9 @@ nlohmann::json machine_context() {
       {"hwloc_api_version", fmt::format("{}.{}.{}", api >> 16, (api >> 8) & 0xff, api & 0xff)},
   };
   const std::uint64_t memory = topology.total_memory();
-  context["memory"] = {{"total_bytes", total_memory_bytes()}, {"hwloc_numa_bytes", memory}};
+  context["memory"] = {{"total_bytes", total_memory_bytes()},
+                       {"hwloc_numa_bytes", memory},
+                       {"allocator", to_json(allocator_policy())}};
   std::array<double, 3> load{};
   context["load_average"] =
       getloadavg(load.data(), 3) == 3 ? nlohmann::json(load) : nlohmann::json::array();
@@ -299,6 +302,18 @@ std::string machine_summary(const nlohmann::json& c) {
   };
   const auto& omp = c.at("openmp");
   const auto& schedule = omp.at("schedule");
+  // Stored contexts from before the allocator was recorded have no "allocator".
+  std::string allocator;
+  if (const auto& memory = c.at("memory"); memory.contains("allocator")) {
+    const auto& a = memory.at("allocator");
+    allocator = a.at("mmap_threshold_bytes").is_null()
+                    ? fmt::format("; allocator {}, its own mmap threshold",
+                                  a.at("library").get<std::string>())
+                    : fmt::format("; allocator {}, blocks >= {} KiB mapped ({})",
+                                  a.at("library").get<std::string>(),
+                                  a.at("mmap_threshold_bytes").get<std::int64_t>() / 1024,
+                                  a.at("source").get<std::string>());
+  }
   std::string environment;
   for (const auto& [name, value] : omp.at("environment").items()) {
     environment += fmt::format(" {}={}", name, value.get<std::string>());
@@ -308,7 +323,7 @@ std::string machine_summary(const nlohmann::json& c) {
       "cpu       {}\n"
       "topology  {} package(s), {} core(s), {} PU(s), {} NUMA node(s)\n"
       "caches    {}, {}, {}\n"
-      "memory    {:.1f} GiB\n"
+      "memory    {:.1f} GiB{}\n"
       "compiler  {} {}, {} build, revision {}\n"
       "openmp    {} ({}), _OPENMP {}, max threads {}, procs {}, schedule {}{},{} proc_bind {}\n"
       "env      {}\n"
@@ -320,7 +335,7 @@ std::string machine_summary(const nlohmann::json& c) {
       cache_text("L2"), cache_text("L3"),
       static_cast<double>(c.at("memory").at("total_bytes").get<std::uint64_t>()) /
           (1024.0 * 1024.0 * 1024.0),
-      c.at("compiler").at("id").get<std::string>(),
+      allocator, c.at("compiler").at("id").get<std::string>(),
       c.at("compiler").at("version").get<std::string>(),
       c.at("build").at("type").get<std::string>(),
       c.at("build").at("git_revision").get<std::string>(),

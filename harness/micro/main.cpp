@@ -3,10 +3,12 @@
 // then says so, in the console header and in the JSON.
 #include <benchmark/benchmark.h>
 
+#include "harness/machine/allocator.hpp"
 #include "harness/micro/smoke.hpp"
 #include "harness/run/disturbance.hpp"
 
 int main(int argc, char** argv) {
+  clothbench::harness::configure_allocator();  // the policy `clothbench run` has
   if (clothbench::micro::smoke()) {
     benchmark::AddCustomContext("clothbench_micro_smoke",
                                 "tiny sizes (CLOTHBENCH_MICRO_SMOKE=1): not measurements");

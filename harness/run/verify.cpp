@@ -52,9 +52,10 @@ ReferenceComparison compare_state(const kernels::Simulation& simulation,
     if (differs || at >= reference_bytes.size()) return;
     const std::string_view reference =
         std::string_view(reference_bytes).substr(at, array.size());
-    const auto [mine, theirs] =
+    const auto mine =
         std::mismatch(array.begin(), array.begin() + static_cast<std::ptrdiff_t>(reference.size()),
-                      reference.begin());
+                      reference.begin())
+            .first;
     c.first_difference = at + static_cast<std::size_t>(mine - array.begin());
     differs = mine != array.begin() + static_cast<std::ptrdiff_t>(reference.size());
   });
