@@ -26,11 +26,11 @@ AllocatorPolicy policy_in_force{
 #endif
     -1, "allocator default"};
 
-/// MALLOC_MMAP_THRESHOLD_ as glibc reads it (a decimal byte count), or -1 if unset or not a
-/// number glibc would take.
+/// MALLOC_MMAP_THRESHOLD_: -2 if unset or empty, -1 if set but not a decimal byte count
+/// (glibc has made of it what it makes; clothbench leaves it alone all the same), else the value.
 std::int64_t environment_threshold() {
   const char* text = std::getenv("MALLOC_MMAP_THRESHOLD_");
-  if (text == nullptr || *text == '\0') return -1;
+  if (text == nullptr || *text == '\0') return -2;
   char* end = nullptr;
   errno = 0;
   const long long value = std::strtoll(text, &end, 10);
@@ -45,7 +45,9 @@ AllocatorPolicy configure_allocator() {
   if (configured) return policy_in_force;
   configured = true;
 #if defined(__GLIBC__)
-  if (const std::int64_t user = environment_threshold(); user >= 0) {
+  if (const std::int64_t user = environment_threshold(); user == -1) {
+    policy_in_force.source = "environment";  // a form clothbench does not read: value unknown
+  } else if (user >= 0) {
     // glibc has read it already. Setting it again changes nothing and says whether it took: a
     // sanitizer's allocator, which replaces glibc's, refuses every mallopt.
     if (user <= INT_MAX && mallopt(M_MMAP_THRESHOLD, static_cast<int>(user)) == 1) {

@@ -24,7 +24,8 @@ inline constexpr std::int64_t kLargeBlockBytes = std::int64_t{1} << 20;
 struct AllocatorPolicy {
   std::string library;  ///< "glibc 2.36", or "unknown" (another C library: nothing is set)
   /// The fixed mmap threshold in force (bytes), or -1 when the allocator keeps its own
-  /// (another C library, or mallopt refused).
+  /// (another C library, or mallopt refused) or when MALLOC_MMAP_THRESHOLD_ is not a decimal
+  /// byte count (source "environment": the user's, left alone, its value unknown).
   std::int64_t mmap_threshold_bytes = -1;
   /// Where the threshold came from: "clothbench" (kLargeBlockBytes), "environment"
   /// (MALLOC_MMAP_THRESHOLD_ set by the user, which glibc applies itself and clothbench

@@ -8,7 +8,9 @@
 #include "harness/run/disturbance.hpp"
 
 int main(int argc, char** argv) {
-  clothbench::harness::configure_allocator();  // the policy `clothbench run` has
+  // The policy `clothbench run` has, recorded as its machine context records it.
+  const clothbench::harness::AllocatorPolicy allocator = clothbench::harness::configure_allocator();
+  benchmark::AddCustomContext("allocator", clothbench::harness::to_json(allocator).dump());
   if (clothbench::micro::smoke()) {
     benchmark::AddCustomContext("clothbench_micro_smoke",
                                 "tiny sizes (CLOTHBENCH_MICRO_SMOKE=1): not measurements");

@@ -114,6 +114,12 @@ TEST(AllocatorPolicy, TheCommandKeepsAUsersThreshold) {
   EXPECT_EQ(own_policy, expected_policy(own_policy.at("library").get<std::string>()));
   // glibc reads the variable itself; clothbench records it and sets nothing.
   EXPECT_EQ(user_policy, expected_policy(own_policy.at("library").get<std::string>(), 65536));
+  // A form clothbench does not read is the user's all the same: left alone, its value unknown.
+  const auto other = run("info --json", "MALLOC_MMAP_THRESHOLD_=0x10000");
+  ASSERT_EQ(other.exit_code, 0) << other.output;
+  const auto other_policy = nlohmann::json::parse(other.output).at("memory").at("allocator");
+  EXPECT_EQ(other_policy.at("source"), "environment") << other_policy;
+  EXPECT_TRUE(other_policy.at("mmap_threshold_bytes").is_null()) << other_policy;
 #else
   EXPECT_EQ(own_policy, user_policy);
 #endif
