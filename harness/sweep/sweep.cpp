@@ -5,6 +5,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -127,9 +129,17 @@ void write_outputs(json& document, const std::filesystem::path& dir) {
   write_file_atomically(dir / "table.csv", format_csv(document));
 }
 
+/// Machine context fields (JSON pointers) that a resumed sweep must share with the rows it
+/// continues: the build, the compiler, the processor, the host, the OpenMP runtime and the
+/// allocator policy. Load, date and kernel release may differ (each session's are recorded).
+constexpr const char* kResumeMachineFields[] = {
+    "/build/git_revision", "/build/type",   "/build/flags",   "/compiler",
+    "/cpu/model",          "/cpu/packages", "/cpu/cores",     "/cpu/pus",
+    "/hostname",           "/openmp/runtime/name",            "/memory/allocator"};
+
 /// The existing document of a resumed sweep, after checking it matches this sweep.
 json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,
-                      const SweepOptions& options) {
+                      const SweepOptions& options, const json& machine) {
   json old = load_sweep_document(file);
   auto refuse = [&](const std::string& what) {
     throw std::invalid_argument(fmt::format(
@@ -143,7 +153,47 @@ json resumed_document(const std::filesystem::path& file, const Scene& scene, int
   if (old["settings"]["instrument"] != to_string(options.instrument)) {
     refuse(fmt::format("--instrument {}", old["settings"]["instrument"].get<std::string>()));
   }
+  // Rows timed by another build or on another machine would share one table and one speed-up
+  // column without saying so.
+  for (const char* field : kResumeMachineFields) {
+    const json::json_pointer at(field);
+    const json before = old["machine"].contains(at) ? old["machine"][at] : json();
+    const json now = machine.contains(at) ? machine[at] : json();
+    if (before != now) {
+      std::string name = field;
+      std::replace(name.begin(), name.end(), '/', '.');
+      refuse(fmt::format("machine{} = {} (this run: {})", name, before.dump(), now.dump()));
+    }
+  }
   return old;
+}
+
+/// The final state of the reference run, stored so that a resumed sweep compares its rows
+/// with it instead of running the reference again (at the paper's size that is the longest
+/// run of the sweep). Only for resuming: `results/` ignores it (.gitignore).
+constexpr const char* kReferenceStateFile = "reference-state.bin";
+
+/// The stored reference state of `dir` when it is the one `digest` names; nullopt (and why,
+/// in `why`) when it is missing or differs.
+std::optional<std::string> stored_reference_state(const std::filesystem::path& dir,
+                                                  const std::string& digest, std::string& why) {
+  const std::filesystem::path file = dir / kReferenceStateFile;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    why = fmt::format("{} is missing", file.string());
+    return std::nullopt;
+  }
+  std::ifstream in(file, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) {
+    why = fmt::format("{} cannot be read", file.string());
+    return std::nullopt;
+  }
+  if (fnv1a64_hex(bytes) != digest) {
+    why = fmt::format("{} does not hold the state digest {} of sweep.json", file.string(), digest);
+    return std::nullopt;
+  }
+  return bytes;
 }
 
 /// `word` quoted for a POSIX shell when it needs to be.
@@ -204,8 +254,9 @@ int run_sweep(const SweepOptions& options) {
   const std::filesystem::path json_file = options.output_dir / "sweep.json";
 
   json document;
+  const json machine = machine_context();
   const bool resuming = options.resume && std::filesystem::exists(json_file);
-  if (resuming) document = resumed_document(json_file, scene, scene.steps, options);
+  if (resuming) document = resumed_document(json_file, scene, scene.steps, options, machine);
 
   // The reference: the first scheduler on 1 thread, uninstrumented and uncounted.
   if (!options.quiet) {
@@ -219,27 +270,66 @@ int run_sweep(const SweepOptions& options) {
   }
   // From here on Ctrl-C / SIGTERM stop the sweep after the run in progress (stop_request.hpp).
   const StopRequest stop;
-  std::unique_ptr<kernels::Simulation> reference_simulation;
-  const MeasuredRun reference = fresh_run(scene, *schedulers::make_driver(grid.front().given), 1, scene.steps,
-                                          kernels::Instrumentation::off, nullptr,
-                                          &reference_simulation);
-  const std::string reference_bytes = state_bytes(*reference_simulation);
-  if (resuming && document["reference"]["state_digest"] != reference.state_digest) {
-    throw std::invalid_argument(fmt::format(
-        "--resume: the reference state digest {} differs from {} in {} (different build or "
-        "code); start a new sweep",
-        reference.state_digest, document["reference"]["state_digest"].dump(), json_file.string()));
+  const std::filesystem::path reference_file = options.output_dir / kReferenceStateFile;
+  // A resumed sweep compares its rows with the reference state stored by the session that ran
+  // the reference; it runs the reference again only when that file is missing or differs.
+  std::string reference_bytes;
+  std::string reference_source = "run";
+  if (resuming) {
+    std::string why;
+    const std::string digest = document["reference"]["state_digest"].get<std::string>();
+    if (std::optional<std::string> stored = stored_reference_state(options.output_dir, digest, why)) {
+      reference_bytes = std::move(*stored);
+      reference_source = "stored";
+      if (!options.quiet) {
+        fmt::print("  reference: the stored final state of the 1-thread reference run ({}, "
+                   "digest {}), not run again\n",
+                   reference_file.string(), digest);
+      }
+    } else if (!options.quiet) {
+      fmt::print("  reference: {}; running the reference again\n", why);
+    }
   }
-  if (!reference.verification.passed && !options.quiet) {
-    fmt::print("  warning: the reference run itself fails verification: {}\n",
-               reference.verification.failures.front());
+  // The cloth picture comes from the reference run, right after it: the reference's simulation
+  // is not kept while the rows run (at the paper's size it is most of a run's memory).
+  PlotOutcome cloth;
+  json reference_entry = resuming ? document["reference"] : json::object();
+  if (reference_source == "run") {
+    std::unique_ptr<kernels::Simulation> reference_simulation;
+    const MeasuredRun reference =
+        fresh_run(scene, *schedulers::make_driver(grid.front().given), 1, scene.steps,
+                  kernels::Instrumentation::off, nullptr, &reference_simulation);
+    reference_bytes = state_bytes(*reference_simulation);
+    if (resuming && document["reference"]["state_digest"] != reference.state_digest) {
+      throw std::invalid_argument(fmt::format(
+          "--resume: the reference state digest {} differs from {} in {} (different build or "
+          "code); start a new sweep",
+          reference.state_digest, document["reference"]["state_digest"].dump(), json_file.string()));
+    }
+    if (!reference.verification.passed && !options.quiet) {
+      fmt::print("  warning: the reference run itself fails verification: {}\n",
+                 reference.verification.failures.front());
+    }
+    write_file_atomically(reference_file, reference_bytes);
+    if (options.plots && gnuplot_available()) {
+      cloth = plot_cloth(cloth_picture(*reference_simulation),
+                         fmt::format("{} after {} steps", scene.name, scene.steps),
+                         options.output_dir);
+    }
+    reference_entry = {{"scheduler", grid.front().canonical},
+                             {"threads", 1},
+                             {"state_digest", reference.state_digest},
+                             {"state_bytes", reference_bytes.size()},
+                             {"verification_passed", reference.verification.passed}};
   }
   if (!resuming) {
     document = {{"schema", "clothbench.sweep"},
                 {"schema_version", kSweepSchemaVersion},
                 {"created_utc", utc_now()},
                 {"rows", json::array()}};
+    document["machine"] = machine;
   }
+  document["reference"] = reference_entry;
   document["updated_utc"] = utc_now();
   document["complete"] = false;
   document["command"] = options.command_line;
@@ -248,20 +338,21 @@ int run_sweep(const SweepOptions& options) {
                        {"file", scene.file.string()},
                        {"hash", scene.source_sha256_or_fnv},
                        {"source", scene.source_text}};
-  document["machine"] = machine_context();
+  // The first session's machine context stays the document's (a resume checked that the
+  // fields that matter are the same); every session adds its start, load and reference.
+  if (!document["sessions"].is_array()) document["sessions"] = json::array();
+  document["sessions"].push_back({{"started_utc", machine["date_utc"]},
+                                  {"load_average", machine["load_average"]},
+                                  {"rows_at_start", document["rows"].size()},
+                                  {"reference", reference_source}});
   document["openmp_environment"] = openmp_environment();
-  if (const json& load = document["machine"]["load_average"];
+  if (const json& load = machine["load_average"];
       !load.empty() && load[0].get<double>() > 0.5 && !options.quiet) {
     fmt::print(stderr,
                "clothbench: warning: load average {:.2f} on {} hardware threads - other "
                "processes compete for the cores and the timings will show it\n",
                load[0].get<double>(), hardware);
   }
-  document["reference"] = {{"scheduler", grid.front().canonical},
-                           {"threads", 1},
-                           {"state_digest", reference.state_digest},
-                           {"state_bytes", reference_bytes.size()},
-                           {"verification_passed", reference.verification.passed}};
   write_outputs(document, options.output_dir);
 
   const bool instrumented = options.instrument != kernels::Instrumentation::off;
@@ -356,9 +447,11 @@ int run_sweep(const SweepOptions& options) {
     progress.clear();
     fmt::print(stderr,
                "clothbench sweep: stopped by {}: {} of {} rows are finished and kept in {}\n"
-               "  resume with: {}\n",
+               "  resume with: {}\n"
+               "  (the reference run's final state is kept in {}: the resumed sweep compares "
+               "its rows with it and does not run the reference again)\n",
                signal_name(stop.signal()), finished, grid.size() * threads.size(),
-               json_file.string(), resume_command(options));
+               json_file.string(), resume_command(options), reference_file.string());
     return 128 + stop.signal();
   }
   progress.clear();
@@ -370,9 +463,6 @@ int run_sweep(const SweepOptions& options) {
       fmt::print(stderr, "clothbench: gnuplot not found; no plots written\n");
     } else {
       PlotOutcome figures = plot_sweep(document, options.output_dir);
-      PlotOutcome cloth =
-          plot_cloth(cloth_picture(*reference_simulation),
-                     fmt::format("{} after {} steps", scene.name, scene.steps), options.output_dir);
       figures.images.insert(figures.images.end(), cloth.images.begin(), cloth.images.end());
       figures.problems.insert(figures.problems.end(), cloth.problems.begin(), cloth.problems.end());
       for (const std::string& p : figures.problems) fmt::print(stderr, "clothbench: {}\n", p);

@@ -340,6 +340,23 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   }
   for (const char* k : {"name", "file", "hash", "source"}) expect(d["scene"], "scene", k, is_string, "string", p);
   expect(d["reference"], "reference", "state_digest", is_string, "string", p);
+  if (d.contains("sessions")) {  // absent in older documents
+    if (!d["sessions"].is_array()) {
+      p.push_back("document.sessions: expected array");
+    } else {
+      for (std::size_t i = 0; i < d["sessions"].size(); ++i) {
+        const json& session = d["sessions"][i];
+        const std::string where = fmt::format("sessions[{}]", i);
+        expect(session, where, "started_utc", is_string, "string", p);
+        expect(session, where, "rows_at_start", is_integer, "integer", p);
+        expect(session, where, "reference", is_string, "string", p);
+        if (session.is_object() && session.contains("reference") &&
+            session["reference"] != "run" && session["reference"] != "stored") {
+          p.push_back(where + ".reference: expected \"run\" or \"stored\"");
+        }
+      }
+    }
+  }
   expect(d["settings"], "settings", "schedulers", is_array, "array", p);
   expect(d["settings"], "settings", "threads", is_array, "array", p);
   expect(d["settings"], "settings", "steps", is_integer, "integer", p);

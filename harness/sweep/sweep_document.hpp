@@ -6,6 +6,9 @@
 //   bind, oversubscribe, retries, omp_wait_policy (the last two absent in older documents)},
 //   scene {name, file, hash, source}, machine (machine_context()), openmp_environment
 //   (openmp_environment()), reference {scheduler, threads, state_digest, state_bytes},
+//   sessions [{started_utc, load_average, rows_at_start, reference "run" | "stored"}] (one
+//   per start or --resume; absent in older documents; `machine` is the first session's, and a
+//   resume must match its build, compiler, processor, host, OpenMP runtime and allocator),
 //   rows [ROW ...]
 //
 //   ROW: scheduler (as given), scheduler_canonical, note, threads, oversubscribed,

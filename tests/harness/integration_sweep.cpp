@@ -224,6 +224,49 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   }
   const auto all = row_keys(after);
   for (const auto& k : kept) EXPECT_TRUE(all.count(k));
+  // The resume compared its rows with the reference state the killed sweep stored, without
+  // running the reference again, and says so per session.
+  ASSERT_TRUE(after["sessions"].is_array());
+  ASSERT_EQ(after["sessions"].size(), 2u);
+  EXPECT_EQ(after["sessions"][0]["reference"], "run");
+  EXPECT_EQ(after["sessions"][1]["reference"], "stored");
+  EXPECT_EQ(after["sessions"][1]["rows_at_start"], partial["rows"].size());
+  EXPECT_EQ(after["machine"], partial["machine"]) << "the first session's machine is kept";
+  for (const json& row : after["rows"]) {
+    EXPECT_TRUE(row["verification"]["bit_identical"].get<bool>()) << row.dump();
+  }
+  const auto problems = clothbench::harness::validate_sweep_document(after);
+  EXPECT_TRUE(problems.empty()) << problems.front();
+
+  // A stored state that is not the reference's is not trusted: the reference runs again.
+  auto drop_last_row = [&] {
+    json d = read_json(killed / "sweep.json");
+    d["rows"].erase(d["rows"].size() - 1);
+    d["complete"] = false;
+    std::ofstream(killed / "sweep.json") << d.dump(2);
+  };
+  drop_last_row();
+  std::ofstream(killed / "reference-state.bin", std::ios::app) << 'x';
+  const Outcome rerun = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                            quote(killed.string()) + " --resume");
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.output;
+  const json third = read_json(killed / "sweep.json");
+  ASSERT_EQ(third["sessions"].size(), 3u);
+  EXPECT_EQ(third["sessions"][2]["reference"], "run");
+  EXPECT_EQ(third["rows"].size(), 8u);
+  EXPECT_TRUE(third["rows"][7]["verification"]["bit_identical"].get<bool>());
+
+  // Rows from another machine or build are never mixed into one table.
+  drop_last_row();
+  json moved = read_json(killed / "sweep.json");
+  moved["machine"]["cpu"]["model"] = "Some Other CPU";
+  std::ofstream(killed / "sweep.json") << moved.dump(2);
+  const Outcome elsewhere = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                                quote(killed.string()) + " --resume");
+  EXPECT_EQ(elsewhere.exit_code, 2) << elsewhere.output;
+  EXPECT_NE(elsewhere.output.find("machine.cpu.model = \"Some Other CPU\""), std::string::npos)
+      << elsewhere.output;
+  EXPECT_EQ(read_json(killed / "sweep.json")["rows"].size(), 7u) << "nothing is lost";
 
   const Outcome uninterrupted =
       run("sweep " + quote(kScene.string()) + " " + grid_text + quote(whole.string()));

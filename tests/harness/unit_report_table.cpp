@@ -145,6 +145,29 @@ TEST(ReportTable, ValidatorNamesMissingAndMistypedKeys) {
   EXPECT_NE(all.find("schema_version"), std::string::npos) << all;
 }
 
+TEST(ReportTable, ValidatorChecksTheSessionsOfAResumedSweep) {
+  json d = document();
+  d["sessions"] = json::array({{{"started_utc", "2026-11-30T00:00:00Z"},
+                                {"load_average", {0.1, 0.2, 0.3}},
+                                {"rows_at_start", 0},
+                                {"reference", "run"}},
+                               {{"started_utc", "2026-11-30T01:00:00Z"},
+                                {"load_average", {0.1, 0.2, 0.3}},
+                                {"rows_at_start", 2},
+                                {"reference", "stored"}}});
+  EXPECT_TRUE(clothbench::harness::validate_sweep_document(d).empty());
+  d["sessions"][1]["reference"] = "guessed";
+  d["sessions"][0].erase("rows_at_start");
+  const auto problems = clothbench::harness::validate_sweep_document(d);
+  std::string all;
+  for (const auto& p : problems) all += p + "\n";
+  EXPECT_NE(all.find("sessions[1].reference: expected \"run\" or \"stored\""), std::string::npos)
+      << all;
+  EXPECT_NE(all.find("sessions[0]: missing key 'rows_at_start'"), std::string::npos) << all;
+  d["sessions"] = "yesterday";
+  EXPECT_FALSE(clothbench::harness::validate_sweep_document(d).empty());
+}
+
 TEST(SweepOptions, ThreadListsAndErrors) {
   using clothbench::harness::parse_thread_list;
   EXPECT_EQ(parse_thread_list("1,2,4", "--threads"), (std::vector<int>{1, 2, 4}));
