@@ -139,7 +139,7 @@ constexpr const char* kResumeMachineFields[] = {
 
 /// The existing document of a resumed sweep, after checking it matches this sweep.
 json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,
-                      const SweepOptions& options, const json& machine) {
+                      const SweepOptions& options, const json& machine, const json& settings) {
   json old = load_sweep_document(file);
   auto refuse = [&](const std::string& what) {
     throw std::invalid_argument(fmt::format(
@@ -153,8 +153,25 @@ json resumed_document(const std::filesystem::path& file, const Scene& scene, int
   if (old["settings"]["instrument"] != to_string(options.instrument)) {
     refuse(fmt::format("--instrument {}", old["settings"]["instrument"].get<std::string>()));
   }
-  // Rows timed by another build or on another machine would share one table and one speed-up
-  // column without saying so.
+  // Rows measured another way, by another build or on another machine would share one table
+  // and one speed-up column without saying so. (Schedulers, thread counts, retries and
+  // --oversubscribe may change: a resume may extend the grid, and rows carry their own labels.)
+  for (const char* key : {"repeat", "warmup_steps", "bind", "omp_wait_policy"}) {
+    if (!old["settings"].contains(key)) continue;  // older documents
+    if (old["settings"][key] != settings[key]) {
+      refuse(fmt::format("settings.{} = {} (this run: {})", key, old["settings"][key].dump(),
+                         settings[key].dump()));
+    }
+  }
+  auto without_thread_count = [](json environment) {
+    if (environment.is_object()) environment.erase("OMP_NUM_THREADS");  // the sweep sets it
+    return environment;
+  };
+  if (old.contains("openmp_environment") &&
+      without_thread_count(old["openmp_environment"]) != without_thread_count(openmp_environment())) {
+    refuse(fmt::format("the OpenMP environment {} (this run: {})",
+                       old["openmp_environment"].dump(), openmp_environment().dump()));
+  }
   for (const char* field : kResumeMachineFields) {
     const json::json_pointer at(field);
     const json before = old["machine"].contains(at) ? old["machine"][at] : json();
@@ -184,6 +201,10 @@ std::optional<std::string> stored_reference_state(const std::filesystem::path& d
     return std::nullopt;
   }
   std::ifstream in(file, std::ios::binary);
+  if (!in) {
+    why = fmt::format("{} cannot be opened", file.string());
+    return std::nullopt;
+  }
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (!in.good() && !in.eof()) {
     why = fmt::format("{} cannot be read", file.string());
@@ -256,7 +277,10 @@ int run_sweep(const SweepOptions& options) {
   json document;
   const json machine = machine_context();
   const bool resuming = options.resume && std::filesystem::exists(json_file);
-  if (resuming) document = resumed_document(json_file, scene, scene.steps, options, machine);
+  if (resuming) {
+    document = resumed_document(json_file, scene, scene.steps, options, machine,
+                                settings_json(options, threads, scene.steps));
+  }
 
   // The reference: the first scheduler on 1 thread, uninstrumented and uncounted.
   if (!options.quiet) {
@@ -317,10 +341,10 @@ int run_sweep(const SweepOptions& options) {
                          options.output_dir);
     }
     reference_entry = {{"scheduler", grid.front().canonical},
-                             {"threads", 1},
-                             {"state_digest", reference.state_digest},
-                             {"state_bytes", reference_bytes.size()},
-                             {"verification_passed", reference.verification.passed}};
+                       {"threads", 1},
+                       {"state_digest", reference.state_digest},
+                       {"state_bytes", reference_bytes.size()},
+                       {"verification_passed", reference.verification.passed}};
   }
   if (!resuming) {
     document = {{"schema", "clothbench.sweep"},

@@ -267,6 +267,16 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   EXPECT_NE(elsewhere.output.find("machine.cpu.model = \"Some Other CPU\""), std::string::npos)
       << elsewhere.output;
   EXPECT_EQ(read_json(killed / "sweep.json")["rows"].size(), 7u) << "nothing is lost";
+  // Nor rows measured another way: here fewer repetitions a row.
+  moved["machine"]["cpu"]["model"] = partial["machine"]["cpu"]["model"];
+  std::ofstream(killed / "sweep.json") << moved.dump(2);
+  const Outcome fewer = run("sweep " + quote(kScene.string()) +
+                            " --schedulers static,dynamic:2,guided:1,active-lists --threads 1,2"
+                            " --repeat 1 --retries 0 --no-plots --quiet --resume --out " +
+                            quote(killed.string()));
+  EXPECT_EQ(fewer.exit_code, 2) << fewer.output;
+  EXPECT_NE(fewer.output.find("settings.repeat = "), std::string::npos) << fewer.output;
+  EXPECT_EQ(read_json(killed / "sweep.json")["rows"].size(), 7u) << "nothing is lost";
 
   const Outcome uninterrupted =
       run("sweep " + quote(kScene.string()) + " " + grid_text + quote(whole.string()));
