@@ -406,7 +406,9 @@ int run_sweep(const SweepOptions& options) {
     }
     progress.advance(options.warmup_steps, label);
     // One repetition at `level`, re-run while other work disturbed it (up to --retries
-    // times); nullopt when a stop was asked for.
+    // times); nullopt when a stop was asked for before a re-run (the resume measures that
+    // repetition again). A run that finished is returned even when a stop is pending: the
+    // caller keeps it, then stops.
     auto repetition = [&](kernels::Instrumentation level) -> std::optional<MeasuredRun> {
       MeasuredRun run = fresh_run(scene, *driver, n, scene.steps, level, &reference_bytes);
       for (int retry = 0; retry < options.retries && run.disturbance.disturbed; ++retry) {
@@ -415,19 +417,38 @@ int run_sweep(const SweepOptions& options) {
         run = fresh_run(scene, *driver, n, scene.steps, level, &reference_bytes);
         run.attempts = attempts;
       }
-      if (stop.signal() != 0) return std::nullopt;
       progress.advance(scene.steps, label);
       return run;
     };
+    // The runs an interrupted session finished for this row are taken up; each run finished
+    // here is stored at once, so a stop or a kill loses at most the run in progress.
     std::vector<MeasuredRun> plain, timed;
+    const RowKey key{s.canonical, n};
+    if (take_partial_row(document, key, plain, timed)) {
+      if (!options.quiet) {
+        progress.clear();
+        fmt::print("  {}: {} run(s) taken from the interrupted session\n", label,
+                   plain.size() + timed.size());
+      }
+      progress.advance(static_cast<double>(scene.steps) *
+                           static_cast<double>(plain.size() + timed.size()),
+                       label);
+    }
+    // Stores a finished run; false when a stop was asked for meanwhile.
+    auto keep = [&](std::vector<MeasuredRun>& list, MeasuredRun&& run) {
+      list.push_back(std::move(run));
+      store_partial_row(document, key, plain, timed);
+      write_outputs(document, options.output_dir);
+      return stop.signal() == 0;
+    };
     for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
-      std::optional<MeasuredRun> run = repetition(kernels::Instrumentation::off);
-      if (!run) return std::nullopt;
-      plain.push_back(std::move(*run));
-      if (instrumented) {
-        run = repetition(options.instrument);
-        if (!run) return std::nullopt;
-        timed.push_back(std::move(*run));
+      if (static_cast<std::size_t>(r) >= plain.size()) {
+        std::optional<MeasuredRun> run = repetition(kernels::Instrumentation::off);
+        if (!run || !keep(plain, std::move(*run))) return std::nullopt;
+      }
+      if (instrumented && static_cast<std::size_t>(r) >= timed.size()) {
+        std::optional<MeasuredRun> run = repetition(options.instrument);
+        if (!run || !keep(timed, std::move(*run))) return std::nullopt;
       }
     }
     const double round_trip_after = n >= 2 ? core_round_trip_ns() : 0.0;
@@ -454,6 +475,7 @@ int run_sweep(const SweepOptions& options) {
       std::optional<json> row = measure_row(s, n);
       if (!row) break;
       all_passed = all_passed && (*row)["verification"]["passed"].get<bool>();
+      drop_partial_row(document, {s.canonical, n});
       document["rows"].push_back(*row);
       write_outputs(document, options.output_dir);  // an interrupted sweep keeps this row
       if (!options.quiet) {
@@ -469,13 +491,25 @@ int run_sweep(const SweepOptions& options) {
   }
   if (stop.signal() != 0 && finished < grid.size() * threads.size()) {
     progress.clear();
+    std::size_t partial_runs = 0;
+    if (document.contains("partial_rows")) {
+      for (const json& entry : document["partial_rows"]) {
+        partial_runs += entry["plain"].size() + entry["timed"].size();
+      }
+    }
     fmt::print(stderr,
-               "clothbench sweep: stopped by {}: {} of {} rows are finished and kept in {}\n"
+               "clothbench sweep: stopped by {}: {} of {} rows are finished and kept in {}{}\n"
                "  resume with: {}\n"
                "  (the reference run's final state is kept in {}: the resumed sweep compares "
                "its rows with it and does not run the reference again)\n",
                signal_name(stop.signal()), finished, grid.size() * threads.size(),
-               json_file.string(), resume_command(options), reference_file.string());
+               json_file.string(),
+               partial_runs == 0
+                   ? std::string()
+                   : fmt::format(",\n  with {} finished run(s) of the unfinished row (the resume "
+                                 "takes them up)",
+                                 partial_runs),
+               resume_command(options), reference_file.string());
     return 128 + stop.signal();
   }
   progress.clear();

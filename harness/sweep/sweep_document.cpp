@@ -212,6 +212,140 @@ json settings_json(const SweepOptions& options, const std::vector<int>& threads,
           {"size_class", options.size_class ? json(*options.size_class) : json(nullptr)}};
 }
 
+namespace {
+
+/// `j[key]` as T, or std::invalid_argument naming `where.key`.
+template <class T>
+T field(const json& j, const std::string& where, const char* key) {
+  if (!j.is_object() || !j.contains(key)) {
+    throw std::invalid_argument(fmt::format("{}: missing key '{}'", where, key));
+  }
+  try {
+    return j[key].get<T>();
+  } catch (const json::exception&) {
+    throw std::invalid_argument(fmt::format("{}.{}: wrong type ({})", where, key, j[key].dump()));
+  }
+}
+
+bool same_key(const json& entry, const RowKey& key) {
+  return entry.value("scheduler_canonical", "") == key.scheduler_canonical &&
+         entry.value("threads", 0) == key.threads;
+}
+
+}  // namespace
+
+json measured_run_json(const MeasuredRun& run) {
+  json disturbance = disturbance_json(run.disturbance);
+  disturbance["threads"] = run.disturbance.threads;
+  disturbance["usable_cores"] = run.disturbance.usable_cores;
+  return {{"instrumentation", to_string(run.instrumentation)},
+          {"cg_iterations", run.cg_iterations},
+          {"steps_done", run.steps_done},
+          {"mass_error", run.mass_error},
+          {"finite", run.finite},
+          {"bit_identical", run.bit_identical},
+          {"state_digest", run.state_digest},
+          {"attempts", run.attempts},
+          {"verification",
+           {{"passed", run.verification.passed}, {"failures", run.verification.failures}}},
+          {"accounting", accounting_json(run.accounting, 0)},
+          {"disturbance", std::move(disturbance)}};
+}
+
+MeasuredRun measured_run_from_json(const json& j) {
+  const std::string w = "run";
+  MeasuredRun run;
+  run.instrumentation = parse_instrumentation(field<std::string>(j, w, "instrumentation"));
+  run.cg_iterations = field<std::int64_t>(j, w, "cg_iterations");
+  run.steps_done = field<int>(j, w, "steps_done");
+  run.mass_error = field<double>(j, w, "mass_error");
+  run.finite = field<bool>(j, w, "finite");
+  run.bit_identical = field<bool>(j, w, "bit_identical");
+  run.state_digest = field<std::string>(j, w, "state_digest");
+  run.attempts = field<int>(j, w, "attempts");
+  const json v = field<json>(j, w, "verification");
+  run.verification.passed = field<bool>(v, w + ".verification", "passed");
+  run.verification.failures = field<std::vector<std::string>>(v, w + ".verification", "failures");
+  const json a = field<json>(j, w, "accounting");
+  const std::string wa = w + ".accounting";
+  OverheadAccounting& acc = run.accounting;
+  acc.wall_seconds = field<double>(a, wa, "wall_seconds");
+  acc.step_seconds = field<double>(a, wa, "step_seconds");
+  acc.sequential_overhead = field<double>(a, wa, "sequential_overhead_seconds");
+  acc.parallel_overhead = field<double>(a, wa, "parallel_overhead_seconds");
+  acc.load_imbalance = field<double>(a, wa, "load_imbalance_seconds");
+  acc.parallel_work = field<double>(a, wa, "parallel_work_seconds");
+  acc.unaccounted = field<double>(a, wa, "unaccounted_seconds");
+  acc.imbalance_percent = field<double>(a, wa, "imbalance_percent");
+  acc.thread_work_cv = field<double>(a, wa, "thread_work_cv");
+  acc.loops = field<std::int64_t>(a, wa, "loops");
+  acc.chunks = field<std::int64_t>(a, wa, "chunks");
+  acc.thread_work = field<std::vector<double>>(a, wa, "thread_work_seconds");
+  const json d = field<json>(j, w, "disturbance");
+  const std::string wd = w + ".disturbance";
+  Disturbance& dist = run.disturbance;
+  auto load = [&](const char* key) {
+    const json value = field<json>(d, wd, key);
+    return value.is_null() ? -1.0 : field<double>(d, wd, key);
+  };
+  dist.threads = field<int>(d, wd, "threads");
+  dist.usable_cores = field<int>(d, wd, "usable_cores");
+  dist.wall_seconds = field<double>(d, wd, "wall_seconds");
+  dist.cpu_seconds = field<double>(d, wd, "cpu_seconds");
+  dist.cpu_share = field<double>(d, wd, "cpu_share");
+  dist.involuntary_switches = field<long>(d, wd, "involuntary_switches");
+  dist.switch_rate = field<double>(d, wd, "switch_rate_per_core_second");
+  dist.load_before = load("load_before");
+  dist.load_after = load("load_after");
+  dist.wait_policy = field<std::string>(d, wd, "wait_policy");
+  dist.oversubscribed = field<bool>(d, wd, "oversubscribed");
+  dist.disturbed = field<bool>(d, wd, "disturbed");
+  dist.reasons = field<std::vector<std::string>>(d, wd, "reasons");
+  return run;
+}
+
+void store_partial_row(json& document, const RowKey& key, const std::vector<MeasuredRun>& plain,
+                       const std::vector<MeasuredRun>& timed) {
+  drop_partial_row(document, key);
+  json entry = {{"scheduler_canonical", key.scheduler_canonical},
+                {"threads", key.threads},
+                {"plain", json::array()},
+                {"timed", json::array()}};
+  for (const MeasuredRun& r : plain) entry["plain"].push_back(measured_run_json(r));
+  for (const MeasuredRun& r : timed) entry["timed"].push_back(measured_run_json(r));
+  if (!document["partial_rows"].is_array()) document["partial_rows"] = json::array();
+  document["partial_rows"].push_back(std::move(entry));
+}
+
+bool take_partial_row(const json& document, const RowKey& key, std::vector<MeasuredRun>& plain,
+                      std::vector<MeasuredRun>& timed) {
+  if (!document.contains("partial_rows") || !document["partial_rows"].is_array()) return false;
+  for (const json& entry : document["partial_rows"]) {
+    if (!same_key(entry, key)) continue;
+    for (const json& r : field<json>(entry, "partial_rows[]", "plain")) {
+      plain.push_back(measured_run_from_json(r));
+    }
+    for (const json& r : field<json>(entry, "partial_rows[]", "timed")) {
+      timed.push_back(measured_run_from_json(r));
+    }
+    return true;
+  }
+  return false;
+}
+
+void drop_partial_row(json& document, const RowKey& key) {
+  if (!document.contains("partial_rows")) return;
+  json& entries = document["partial_rows"];
+  if (entries.is_array()) {
+    json kept = json::array();
+    for (json& entry : entries) {
+      if (!same_key(entry, key)) kept.push_back(std::move(entry));
+    }
+    entries = std::move(kept);
+  }
+  if (!entries.is_array() || entries.empty()) document.erase("partial_rows");
+}
+
 bool has_row(const json& document, const RowKey& key) {
   if (!document.contains("rows")) return false;
   return std::any_of(document["rows"].begin(), document["rows"].end(), [&](const json& row) {
@@ -353,6 +487,29 @@ std::vector<std::string> validate_sweep_document(const json& d) {
         if (session.is_object() && session.contains("reference") &&
             session["reference"] != "run" && session["reference"] != "stored") {
           p.push_back(where + ".reference: expected \"run\" or \"stored\"");
+        }
+      }
+    }
+  }
+  if (d.contains("partial_rows")) {  // present only while a row is unfinished
+    if (!d["partial_rows"].is_array()) {
+      p.push_back("document.partial_rows: expected array");
+    } else {
+      for (std::size_t i = 0; i < d["partial_rows"].size(); ++i) {
+        const json& entry = d["partial_rows"][i];
+        const std::string where = fmt::format("partial_rows[{}]", i);
+        expect(entry, where, "scheduler_canonical", is_string, "string", p);
+        expect(entry, where, "threads", is_integer, "integer", p);
+        for (const char* list : {"plain", "timed"}) {
+          expect(entry, where, list, is_array, "array", p);
+          if (!entry.is_object() || !entry.contains(list) || !entry[list].is_array()) continue;
+          for (std::size_t r = 0; r < entry[list].size(); ++r) {
+            try {
+              (void)measured_run_from_json(entry[list][r]);
+            } catch (const std::invalid_argument& e) {
+              p.push_back(fmt::format("{}.{}[{}]: {}", where, list, r, e.what()));
+            }
+          }
         }
       }
     }

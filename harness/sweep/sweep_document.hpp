@@ -9,7 +9,13 @@
 //   sessions [{started_utc, load_average, rows_at_start, reference "run" | "stored"}] (one
 //   per start or --resume; absent in older documents; `machine` is the first session's, and a
 //   resume must match its build, compiler, processor, host, OpenMP runtime and allocator),
-//   rows [ROW ...]
+//   rows [ROW ...],
+//   partial_rows [{scheduler_canonical, threads, plain [RUN ...], timed [RUN ...]}] (the runs
+//     of rows an interrupted session did not finish, taken up by --resume; absent when none)
+//
+//   RUN: instrumentation, cg_iterations, steps_done, mass_error, finite, bit_identical,
+//   state_digest, attempts, verification {passed, failures[]}, accounting (as ROW's, from_run
+//   0), disturbance (as a ROW's record, plus threads and usable_cores)
 //
 //   ROW: scheduler (as given), scheduler_canonical, note, threads, oversubscribed,
 //   time_seconds {median, min, max, samples[]}        -- uninstrumented runs
@@ -107,6 +113,26 @@ std::optional<double> instrumentation_cost_ratio(const nlohmann::json& row);
 
 /// The accounting block of one run as JSON.
 nlohmann::json accounting_json(const OverheadAccounting& a, std::size_t from_run);
+
+/// One measured run as a RUN object (layout above) and back: a run read back makes the same
+/// row as the run itself (doubles are written with enough digits to round-trip). Throws
+/// std::invalid_argument naming the missing or mistyped key.
+nlohmann::json measured_run_json(const MeasuredRun& run);
+MeasuredRun measured_run_from_json(const nlohmann::json& j);
+
+/// Records the finished runs of the unfinished row `key` in `document["partial_rows"]`
+/// (replacing an earlier entry for it), so an interrupted sweep loses at most the run in
+/// progress.
+void store_partial_row(nlohmann::json& document, const RowKey& key,
+                       const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed);
+
+/// The runs stored for `key` by store_partial_row, appended to `plain` and `timed`; false
+/// (nothing appended) when there are none.
+bool take_partial_row(const nlohmann::json& document, const RowKey& key,
+                      std::vector<MeasuredRun>& plain, std::vector<MeasuredRun>& timed);
+
+/// Removes the entry for `key` (the row is finished), and `partial_rows` once it is empty.
+void drop_partial_row(nlohmann::json& document, const RowKey& key);
 
 /// Settings block of a sweep.
 nlohmann::json settings_json(const SweepOptions& options, const std::vector<int>& threads,

@@ -387,6 +387,87 @@ TEST_F(SweepBinary, CtrlCStopsAfterTheCurrentRunKeepsRowsAndTheResumeCommandComp
   fs::remove(log);
 }
 
+TEST_F(SweepBinary, AStopInsideARowKeepsItsFinishedRunsAndTheResumeTakesThemUp) {
+  // One row of many runs: the Ctrl-C goes once the first of them is on disk, so the row is
+  // unfinished when the sweep stops. Its finished runs must be in sweep.json, and the resume
+  // must take them up as they are rather than measure them again.
+  const fs::path out = fresh_dir("inside-row"), log = out.string() + ".log";
+  const int repeat = kSanitized ? 3 : 8;
+  const std::vector<std::string> grid = {"--schedulers", "static", "--threads", "1", "--steps",
+                                         "12", "--repeat", std::to_string(repeat), "--retries",
+                                         "0", "--warmup-steps", "0", "--no-plots"};
+  std::vector<std::string> args = {"sweep", kScene.string()};
+  args.insert(args.end(), grid.begin(), grid.end());
+  for (const char* a : {"--quiet", "--out"}) args.emplace_back(a);
+  args.push_back(out.string());
+  const pid_t child = clothbench_test::spawn(args, log);
+  ASSERT_NE(child, 0);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWaitSeconds);
+  while (std::chrono::steady_clock::now() < deadline) {
+    try {
+      if (fs::exists(out / "sweep.json") && read_json(out / "sweep.json").contains("partial_rows")) break;
+    } catch (const json::exception&) {
+      ADD_FAILURE() << "sweep.json was torn: writes must be atomic";
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  kill(child, SIGINT);
+  int status = 0;
+  waitpid(child, &status, 0);
+  const std::string output = clothbench_test::read_text(log);
+  ASSERT_TRUE(WIFEXITED(status)) << output;
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the row finished before the signal: " << output;
+
+  const json stopped = read_json(out / "sweep.json");
+  EXPECT_TRUE(stopped["rows"].empty());
+  ASSERT_TRUE(stopped.contains("partial_rows")) << stopped.dump(1);
+  ASSERT_EQ(stopped["partial_rows"].size(), 1u);
+  const json entry = stopped["partial_rows"][0];
+  EXPECT_EQ(entry["scheduler_canonical"], "static@blocks");
+  EXPECT_EQ(entry["threads"], 1);
+  const std::size_t kept = entry["plain"].size() + entry["timed"].size();
+  ASSERT_GE(entry["plain"].size(), 1u);
+  EXPECT_LT(kept, static_cast<std::size_t>(2 * repeat));
+  const auto problems = clothbench::harness::validate_sweep_document(stopped);
+  EXPECT_TRUE(problems.empty()) << problems.front();
+  EXPECT_NE(output.find("with " + std::to_string(kept) +
+                        " finished run(s) of the unfinished row (the resume takes them up)"),
+            std::string::npos)
+      << output;
+
+  std::string grid_text;
+  for (const auto& g : grid) grid_text += quote(g) + " ";
+  const Outcome resumed =
+      run("sweep " + quote(kScene.string()) + " " + grid_text + "--resume --out " + quote(out.string()));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find(std::to_string(kept) + " run(s) taken from the interrupted session"),
+            std::string::npos)
+      << resumed.output;
+  const json after = read_json(out / "sweep.json");
+  EXPECT_TRUE(after["complete"].get<bool>());
+  EXPECT_FALSE(after.contains("partial_rows")) << "a finished row leaves no partial entry";
+  ASSERT_EQ(after["rows"].size(), 1u);
+  const json& row = after["rows"][0];
+  EXPECT_EQ(row["verification"]["runs"], 2 * repeat);
+  EXPECT_TRUE(row["verification"]["bit_identical"].get<bool>());
+  EXPECT_EQ(after["sessions"][1]["reference"], "stored");
+  // The stored runs are the row's first samples, to the last digit.
+  const json& plain_samples = row["time_seconds"]["samples"];
+  const json& timed_samples = row["instrumented"]["time_seconds"]["samples"];
+  ASSERT_EQ(plain_samples.size(), static_cast<std::size_t>(repeat));
+  for (std::size_t i = 0; i < entry["plain"].size(); ++i) {
+    EXPECT_EQ(plain_samples[i], entry["plain"][i]["accounting"]["wall_seconds"]) << i;
+  }
+  for (std::size_t i = 0; i < entry["timed"].size(); ++i) {
+    EXPECT_EQ(timed_samples[i], entry["timed"][i]["accounting"]["wall_seconds"]) << i;
+  }
+  EXPECT_EQ(row["disturbance"]["records"].size(), static_cast<std::size_t>(2 * repeat));
+  const auto final_problems = clothbench::harness::validate_sweep_document(after);
+  EXPECT_TRUE(final_problems.empty()) << final_problems.front();
+  fs::remove_all(out);
+  fs::remove(log);
+}
+
 TEST_F(SweepBinary, SecondCtrlCAbortsAtOnceAndSigtermStopsLikeCtrlC) {
   // The first Ctrl-C goes a few milliseconds into the first measured run; once the sweep has
   // said it is stopping, the second one must end the process by SIGINT without waiting for the

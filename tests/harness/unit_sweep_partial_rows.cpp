@@ -1,0 +1,176 @@
+// The finished runs of an unfinished sweep row (sweep_document.hpp, `partial_rows`): a run
+// written to the document and read back makes the same row as the run itself, so a row
+// finished by a resumed session equals one measured without the interruption; the entries
+// are kept per (scheduler, threads), replaced and dropped; a damaged entry is named by the
+// validator. Made-up runs only: nothing is timed here.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "harness/sweep/measured_run.hpp"
+#include "harness/sweep/sweep_document.hpp"
+
+namespace {
+
+using clothbench::harness::MeasuredRun;
+using clothbench::harness::RowKey;
+using nlohmann::json;
+using testing::HasSubstr;
+
+/// A run whose every field differs from its default, with values that need all 17 digits.
+MeasuredRun made_up_run(double wall, bool instrumented, bool no_load_after) {
+  MeasuredRun r;
+  r.instrumentation = instrumented ? clothbench::kernels::Instrumentation::loops
+                                   : clothbench::kernels::Instrumentation::off;
+  r.accounting.wall_seconds = wall;
+  r.accounting.step_seconds = wall - 1.0 / 3.0;
+  r.accounting.sequential_overhead = 0.1 + 1e-17;
+  r.accounting.parallel_overhead = 2.0 / 7.0;
+  r.accounting.load_imbalance = 0.3;
+  r.accounting.parallel_work = wall - 1.0;
+  r.accounting.unaccounted = 1.0 / 3.0;
+  r.accounting.imbalance_percent = 12.345678901234567;
+  r.accounting.thread_work_cv = 0.0625;
+  r.accounting.loops = 123456789012;
+  r.accounting.chunks = 987654321098;
+  r.accounting.thread_work = {wall / 3.0, wall / 7.0};
+  r.cg_iterations = 4321;
+  r.steps_done = 100;
+  r.mass_error = 3.3e-16;
+  r.finite = true;
+  r.bit_identical = !no_load_after;
+  r.state_digest = "0123456789abcdef";
+  r.verification.fail("made-up failure, " + std::to_string(wall));
+  r.disturbance.threads = 2;
+  r.disturbance.usable_cores = 2;
+  r.disturbance.wall_seconds = wall;
+  r.disturbance.cpu_seconds = 1.97 * wall;
+  r.disturbance.cpu_share = 0.985;
+  r.disturbance.involuntary_switches = 77;
+  r.disturbance.switch_rate = 0.1 / 3.0;
+  r.disturbance.load_before = 1.25;
+  r.disturbance.load_after = no_load_after ? -1.0 : 1.5;
+  r.disturbance.wait_policy = "passive";
+  r.disturbance.oversubscribed = false;
+  r.disturbance.disturbed = no_load_after;
+  if (no_load_after) r.disturbance.reasons = {"made-up reason"};
+  r.attempts = no_load_after ? 3 : 1;
+  return r;
+}
+
+json row_of(const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed) {
+  return clothbench::harness::make_row("static", "static@blocks", "", 2, false, plain, timed,
+                                       clothbench::kernels::Instrumentation::loops, 100,
+                                       {{"mode", "none"}, {"bound", false}, {"threads", json::array()}});
+}
+
+/// The document text and back, as a resumed session reads it from disk.
+json through_text(const json& j) { return json::parse(j.dump(2)); }
+
+TEST(SweepPartialRows, ARunReadBackMakesTheSameRowAsTheRunItself) {
+  const std::vector<MeasuredRun> plain = {made_up_run(2954.123456789012, false, false),
+                                          made_up_run(3190.4 / 3.0, false, true)};
+  const std::vector<MeasuredRun> timed = {made_up_run(3001.0 / 7.0, true, false),
+                                          made_up_run(2999.9999999999995, true, true)};
+  std::vector<MeasuredRun> plain_back, timed_back;
+  for (const MeasuredRun& r : plain) {
+    plain_back.push_back(
+        clothbench::harness::measured_run_from_json(through_text(clothbench::harness::measured_run_json(r))));
+  }
+  for (const MeasuredRun& r : timed) {
+    timed_back.push_back(
+        clothbench::harness::measured_run_from_json(through_text(clothbench::harness::measured_run_json(r))));
+  }
+  EXPECT_EQ(row_of(plain_back, timed_back), row_of(plain, timed));
+  // Fields the row does not show come back too.
+  EXPECT_EQ(plain_back[1].disturbance.load_after, -1.0);
+  EXPECT_EQ(plain_back[1].attempts, 3);
+  EXPECT_EQ(timed_back[0].instrumentation, clothbench::kernels::Instrumentation::loops);
+  EXPECT_EQ(timed_back[0].accounting.thread_work, timed[0].accounting.thread_work);
+  EXPECT_EQ(plain_back[0].steps_done, 100);
+  EXPECT_EQ(plain_back[0].disturbance.threads, 2);
+}
+
+TEST(SweepPartialRows, EntriesAreKeptPerRowReplacedTakenAndDropped) {
+  json document = {{"rows", json::array()}};
+  const RowKey one{"static@blocks", 1}, two{"static@blocks", 2};
+  std::vector<MeasuredRun> plain = {made_up_run(10.0, false, false)};
+  std::vector<MeasuredRun> timed;
+  clothbench::harness::store_partial_row(document, one, plain, timed);
+  timed.push_back(made_up_run(11.0, true, false));
+  clothbench::harness::store_partial_row(document, one, plain, timed);  // replaces
+  clothbench::harness::store_partial_row(document, two, plain, {});
+  ASSERT_EQ(document["partial_rows"].size(), 2u);
+  document = through_text(document);
+
+  std::vector<MeasuredRun> p, t;
+  ASSERT_TRUE(clothbench::harness::take_partial_row(document, one, p, t));
+  ASSERT_EQ(p.size(), 1u);
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_EQ(p[0].accounting.wall_seconds, 10.0);
+  EXPECT_EQ(t[0].accounting.wall_seconds, 11.0);
+  std::vector<MeasuredRun> none_p, none_t;
+  EXPECT_FALSE(clothbench::harness::take_partial_row(document, {"guided:1", 1}, none_p, none_t));
+  EXPECT_TRUE(none_p.empty() && none_t.empty());
+
+  clothbench::harness::drop_partial_row(document, one);
+  ASSERT_EQ(document["partial_rows"].size(), 1u);
+  EXPECT_EQ(document["partial_rows"][0]["threads"], 2);
+  clothbench::harness::drop_partial_row(document, two);
+  EXPECT_FALSE(document.contains("partial_rows")) << "no empty array is left behind";
+}
+
+TEST(SweepPartialRows, AMissingOrMistypedFieldIsNamed) {
+  json run = clothbench::harness::measured_run_json(made_up_run(5.0, false, false));
+  json missing = run;
+  missing["accounting"].erase("loops");
+  try {
+    (void)clothbench::harness::measured_run_from_json(missing);
+    ADD_FAILURE() << "a run without accounting.loops was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("run.accounting: missing key 'loops'"));
+  }
+  json mistyped = run;
+  mistyped["disturbance"]["cpu_share"] = "high";
+  try {
+    (void)clothbench::harness::measured_run_from_json(mistyped);
+    ADD_FAILURE() << "a run with a string cpu_share was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("run.disturbance.cpu_share: wrong type"));
+  }
+}
+
+TEST(SweepPartialRows, ValidatorNamesADamagedEntry) {
+  json document = {{"schema", "clothbench.sweep"},
+                   {"schema_version", clothbench::harness::kSweepSchemaVersion},
+                   {"created_utc", "2026-11-30T07:00:00Z"},
+                   {"updated_utc", "2026-11-30T07:00:00Z"},
+                   {"complete", false},
+                   {"command", json::array()},
+                   {"settings",
+                    {{"schedulers", {"static"}},
+                     {"threads", {1}},
+                     {"repeat", 1},
+                     {"steps", 100},
+                     {"instrument", "loops"}}},
+                   {"scene", {{"name", "made-up"}, {"file", "m.toml"}, {"hash", "abc"}, {"source", ""}}},
+                   {"machine", json::object()},
+                   {"openmp_environment", json::object()},
+                   {"reference", {{"state_digest", "00"}}},
+                   {"rows", json::array()}};
+  clothbench::harness::store_partial_row(document, {"static@blocks", 1},
+                                         {made_up_run(7.0, false, false)}, {});
+  EXPECT_TRUE(clothbench::harness::validate_sweep_document(document).empty());
+  document["partial_rows"][0]["plain"][0].erase("state_digest");
+  document["partial_rows"][0]["timed"] = 3;
+  const auto problems = clothbench::harness::validate_sweep_document(document);
+  ASSERT_EQ(problems.size(), 2u);
+  EXPECT_THAT(problems[0], HasSubstr("partial_rows[0].plain[0]: run: missing key 'state_digest'"));
+  EXPECT_THAT(problems[1], HasSubstr("partial_rows[0].timed: expected array"));
+}
+
+}  // namespace
