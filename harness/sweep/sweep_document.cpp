@@ -367,6 +367,18 @@ void expect(const json& object, const std::string& where, const char* key, Check
   }
 }
 
+/// Calls check(entry, "key[i]") for every entry of the optional array d[key]; a problem when
+/// d[key] is there but not an array.
+template <class Check>
+void each_entry(const json& d, const char* key, std::vector<std::string>& problems, Check check) {
+  if (!d.contains(key)) return;
+  if (!d[key].is_array()) {
+    problems.push_back(fmt::format("document.{}: expected array", key));
+    return;
+  }
+  for (std::size_t i = 0; i < d[key].size(); ++i) check(d[key][i], fmt::format("{}[{}]", key, i));
+}
+
 const auto is_number = [](const json& j) { return j.is_number(); };
 const auto is_number_or_null = [](const json& j) { return j.is_number() || j.is_null(); };
 const auto is_string = [](const json& j) { return j.is_string(); };
@@ -474,46 +486,32 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   }
   for (const char* k : {"name", "file", "hash", "source"}) expect(d["scene"], "scene", k, is_string, "string", p);
   expect(d["reference"], "reference", "state_digest", is_string, "string", p);
-  if (d.contains("sessions")) {  // absent in older documents
-    if (!d["sessions"].is_array()) {
-      p.push_back("document.sessions: expected array");
-    } else {
-      for (std::size_t i = 0; i < d["sessions"].size(); ++i) {
-        const json& session = d["sessions"][i];
-        const std::string where = fmt::format("sessions[{}]", i);
-        expect(session, where, "started_utc", is_string, "string", p);
-        expect(session, where, "rows_at_start", is_integer, "integer", p);
-        expect(session, where, "reference", is_string, "string", p);
-        if (session.is_object() && session.contains("reference") &&
-            session["reference"] != "run" && session["reference"] != "stored") {
-          p.push_back(where + ".reference: expected \"run\" or \"stored\"");
+  // Absent in older documents.
+  each_entry(d, "sessions", p, [&](const json& session, const std::string& where) {
+    expect(session, where, "started_utc", is_string, "string", p);
+    expect(session, where, "rows_at_start", is_integer, "integer", p);
+    expect(session, where, "reference", is_string, "string", p);
+    if (session.is_object() && session.contains("reference") && session["reference"] != "run" &&
+        session["reference"] != "stored") {
+      p.push_back(where + ".reference: expected \"run\" or \"stored\"");
+    }
+  });
+  // Present only while a row is unfinished.
+  each_entry(d, "partial_rows", p, [&](const json& entry, const std::string& where) {
+    expect(entry, where, "scheduler_canonical", is_string, "string", p);
+    expect(entry, where, "threads", is_integer, "integer", p);
+    for (const char* list : {"plain", "timed"}) {
+      expect(entry, where, list, is_array, "array", p);
+      if (!entry.is_object() || !entry.contains(list) || !entry[list].is_array()) continue;
+      for (std::size_t r = 0; r < entry[list].size(); ++r) {
+        try {
+          (void)measured_run_from_json(entry[list][r]);
+        } catch (const std::invalid_argument& e) {
+          p.push_back(fmt::format("{}.{}[{}]: {}", where, list, r, e.what()));
         }
       }
     }
-  }
-  if (d.contains("partial_rows")) {  // present only while a row is unfinished
-    if (!d["partial_rows"].is_array()) {
-      p.push_back("document.partial_rows: expected array");
-    } else {
-      for (std::size_t i = 0; i < d["partial_rows"].size(); ++i) {
-        const json& entry = d["partial_rows"][i];
-        const std::string where = fmt::format("partial_rows[{}]", i);
-        expect(entry, where, "scheduler_canonical", is_string, "string", p);
-        expect(entry, where, "threads", is_integer, "integer", p);
-        for (const char* list : {"plain", "timed"}) {
-          expect(entry, where, list, is_array, "array", p);
-          if (!entry.is_object() || !entry.contains(list) || !entry[list].is_array()) continue;
-          for (std::size_t r = 0; r < entry[list].size(); ++r) {
-            try {
-              (void)measured_run_from_json(entry[list][r]);
-            } catch (const std::invalid_argument& e) {
-              p.push_back(fmt::format("{}.{}[{}]: {}", where, list, r, e.what()));
-            }
-          }
-        }
-      }
-    }
-  }
+  });
   expect(d["settings"], "settings", "schedulers", is_array, "array", p);
   expect(d["settings"], "settings", "threads", is_array, "array", p);
   expect(d["settings"], "settings", "steps", is_integer, "integer", p);
