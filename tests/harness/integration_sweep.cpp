@@ -292,21 +292,31 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   fs::remove_all(whole);
 }
 
-/// Waits until OUT/sweep.json holds at least `rows` rows, at most `seconds`; returns the
-/// count last seen. Fails the test on a torn (unparseable) file.
-std::size_t wait_for_rows(const fs::path& out, std::size_t rows, int seconds) {
+/// Waits until OUT/sweep.json exists and `ready(document)` holds, at most `seconds`; returns
+/// the document last read (null before the file exists). Fails the test on a torn
+/// (unparseable) file.
+template <class Ready>
+json wait_for_document(const fs::path& out, Ready ready, int seconds) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
-  std::size_t seen = 0;
+  json seen;
   while (std::chrono::steady_clock::now() < deadline) {
     try {
-      if (fs::exists(out / "sweep.json")) seen = read_json(out / "sweep.json")["rows"].size();
+      if (fs::exists(out / "sweep.json")) seen = read_json(out / "sweep.json");
     } catch (const json::exception&) {
       ADD_FAILURE() << "sweep.json was torn: writes must be atomic";
     }
-    if (seen >= rows) break;
+    if (!seen.is_null() && ready(seen)) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   return seen;
+}
+
+/// Waits until OUT/sweep.json holds at least `rows` rows, at most `seconds`; returns the
+/// count last seen.
+std::size_t wait_for_rows(const fs::path& out, std::size_t rows, int seconds) {
+  const json seen = wait_for_document(
+      out, [&](const json& d) { return d["rows"].size() >= rows; }, seconds);
+  return seen.is_null() ? 0 : seen["rows"].size();
 }
 
 /// Exit code of a shell command line (stdout and stderr discarded into `output`).
@@ -402,15 +412,7 @@ TEST_F(SweepBinary, AStopInsideARowKeepsItsFinishedRunsAndTheResumeTakesThemUp) 
   args.push_back(out.string());
   const pid_t child = clothbench_test::spawn(args, log);
   ASSERT_NE(child, 0);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWaitSeconds);
-  while (std::chrono::steady_clock::now() < deadline) {
-    try {
-      if (fs::exists(out / "sweep.json") && read_json(out / "sweep.json").contains("partial_rows")) break;
-    } catch (const json::exception&) {
-      ADD_FAILURE() << "sweep.json was torn: writes must be atomic";
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
+  wait_for_document(out, [](const json& d) { return d.contains("partial_rows"); }, kWaitSeconds);
   kill(child, SIGINT);
   int status = 0;
   waitpid(child, &status, 0);
