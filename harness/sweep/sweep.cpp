@@ -397,8 +397,16 @@ int run_sweep(const SweepOptions& options) {
     const auto driver = schedulers::make_driver(s.given);
     omp_set_num_threads(n);
     const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
-    // Where the host put the cores the team runs on (core_round_trip.hpp): before and after.
-    const double round_trip_before = n >= 2 ? core_round_trip_ns() : 0.0;
+    // The runs an interrupted session finished for this row are taken up; each run finished
+    // here is stored at once, so a stop or a kill loses at most the run in progress.
+    std::vector<MeasuredRun> plain, timed;
+    const RowKey key{s.canonical, n};
+    double stored_round_trip = 0.0;
+    const bool taken_up = take_partial_row(document, key, plain, timed, &stored_round_trip);
+    // Where the host put the cores the team runs on (core_round_trip.hpp): before the row's
+    // first run (kept with its runs when a session began the row) and after its last.
+    const double round_trip_before =
+        n < 2 ? 0.0 : stored_round_trip > 0.0 ? stored_round_trip : core_round_trip_ns();
     if (options.warmup_steps > 0) {
       fresh_run(scene, *driver, n, std::min(options.warmup_steps, scene.steps),
                 kernels::Instrumentation::off, nullptr);
@@ -420,11 +428,7 @@ int run_sweep(const SweepOptions& options) {
       progress.advance(scene.steps, label);
       return run;
     };
-    // The runs an interrupted session finished for this row are taken up; each run finished
-    // here is stored at once, so a stop or a kill loses at most the run in progress.
-    std::vector<MeasuredRun> plain, timed;
-    const RowKey key{s.canonical, n};
-    if (take_partial_row(document, key, plain, timed)) {
+    if (taken_up) {
       if (!options.quiet) {
         progress.clear();
         fmt::print("  {}: {} run(s) taken from the interrupted session\n", label,
@@ -434,12 +438,17 @@ int run_sweep(const SweepOptions& options) {
                            static_cast<double>(plain.size() + timed.size()),
                        label);
     }
-    // Stores a finished run; false when a stop was asked for meanwhile.
+    const auto repeat = static_cast<std::size_t>(options.repeat);
+    const auto row_complete = [&] {
+      return plain.size() >= repeat && (!instrumented || timed.size() >= repeat);
+    };
+    // Stores a finished run; false when a stop was asked for meanwhile and the row still
+    // needs runs (a row whose last run finished is completed before the sweep stops).
     auto keep = [&](std::vector<MeasuredRun>& list, MeasuredRun&& run) {
       list.push_back(std::move(run));
-      store_partial_row(document, key, plain, timed);
+      store_partial_row(document, key, plain, timed, round_trip_before);
       write_outputs(document, options.output_dir);
-      return stop.signal() == 0;
+      return stop.signal() == 0 || row_complete();
     };
     for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
       if (static_cast<std::size_t>(r) >= plain.size()) {
@@ -453,6 +462,7 @@ int run_sweep(const SweepOptions& options) {
     }
     const double round_trip_after = n >= 2 ? core_round_trip_ns() : 0.0;
     if (options.trace_dir) {
+      if (stop.signal() != 0) return std::nullopt;  // the resume makes the traced runs
       traced_row_run(scene, *driver, n, std::min(3, options.repeat), reference_bytes,
                      *options.trace_dir, trace_models, options.quiet);
       if (stop.signal() != 0) return std::nullopt;

@@ -305,7 +305,7 @@ MeasuredRun measured_run_from_json(const json& j) {
 }
 
 void store_partial_row(json& document, const RowKey& key, const std::vector<MeasuredRun>& plain,
-                       const std::vector<MeasuredRun>& timed) {
+                       const std::vector<MeasuredRun>& timed, double round_trip_before_ns) {
   drop_partial_row(document, key);
   json entry = {{"scheduler_canonical", key.scheduler_canonical},
                 {"threads", key.threads},
@@ -313,15 +313,20 @@ void store_partial_row(json& document, const RowKey& key, const std::vector<Meas
                 {"timed", json::array()}};
   for (const MeasuredRun& r : plain) entry["plain"].push_back(measured_run_json(r));
   for (const MeasuredRun& r : timed) entry["timed"].push_back(measured_run_json(r));
+  if (round_trip_before_ns > 0.0) entry["core_round_trip_before_ns"] = round_trip_before_ns;
   if (!document["partial_rows"].is_array()) document["partial_rows"] = json::array();
   document["partial_rows"].push_back(std::move(entry));
 }
 
 bool take_partial_row(const json& document, const RowKey& key, std::vector<MeasuredRun>& plain,
-                      std::vector<MeasuredRun>& timed) {
+                      std::vector<MeasuredRun>& timed, double* round_trip_before_ns) {
+  if (round_trip_before_ns != nullptr) *round_trip_before_ns = 0.0;
   if (!document.contains("partial_rows") || !document["partial_rows"].is_array()) return false;
   for (const json& entry : document["partial_rows"]) {
     if (!same_key(entry, key)) continue;
+    if (round_trip_before_ns != nullptr && entry.contains("core_round_trip_before_ns")) {
+      *round_trip_before_ns = field<double>(entry, "partial_rows[]", "core_round_trip_before_ns");
+    }
     for (const json& r : field<json>(entry, "partial_rows[]", "plain")) {
       plain.push_back(measured_run_from_json(r));
     }
@@ -500,6 +505,9 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   each_entry(d, "partial_rows", p, [&](const json& entry, const std::string& where) {
     expect(entry, where, "scheduler_canonical", is_string, "string", p);
     expect(entry, where, "threads", is_integer, "integer", p);
+    if (entry.is_object() && entry.contains("core_round_trip_before_ns")) {
+      expect(entry, where, "core_round_trip_before_ns", is_number, "number", p);
+    }
     for (const char* list : {"plain", "timed"}) {
       expect(entry, where, list, is_array, "array", p);
       if (!entry.is_object() || !entry.contains(list) || !entry[list].is_array()) continue;

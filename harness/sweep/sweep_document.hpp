@@ -10,8 +10,9 @@
 //   per start or --resume; absent in older documents; `machine` is the first session's, and a
 //   resume must match its build, compiler, processor, host, OpenMP runtime and allocator),
 //   rows [ROW ...],
-//   partial_rows [{scheduler_canonical, threads, plain [RUN ...], timed [RUN ...]}] (the runs
-//     of rows an interrupted session did not finish, taken up by --resume; absent when none)
+//   partial_rows [{scheduler_canonical, threads, plain [RUN ...], timed [RUN ...],
+//     core_round_trip_before_ns (rows of 2 or more threads; absent in older documents)}] (the
+//     runs of rows an interrupted session did not finish, taken up by --resume; absent when none)
 //
 //   RUN: instrumentation, cg_iterations, steps_done, mass_error, finite, bit_identical,
 //   state_digest, attempts, verification {passed, failures[]}, accounting (as ROW's, from_run
@@ -122,14 +123,18 @@ MeasuredRun measured_run_from_json(const nlohmann::json& j);
 
 /// Records the finished runs of the unfinished row `key` in `document["partial_rows"]`
 /// (replacing an earlier entry for it), so an interrupted sweep loses at most the run in
-/// progress.
+/// progress. `round_trip_before_ns`: the core round trip measured before the row's first run
+/// (rows of 2 or more threads; 0 = none, not written).
 void store_partial_row(nlohmann::json& document, const RowKey& key,
-                       const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed);
+                       const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed,
+                       double round_trip_before_ns = 0.0);
 
-/// The runs stored for `key` by store_partial_row, appended to `plain` and `timed`; false
-/// (nothing appended) when there are none.
+/// The runs stored for `key` by store_partial_row, appended to `plain` and `timed`, and its
+/// round trip before the row's first run in `*round_trip_before_ns` (0 when none was stored);
+/// false (nothing appended) when there are none.
 bool take_partial_row(const nlohmann::json& document, const RowKey& key,
-                      std::vector<MeasuredRun>& plain, std::vector<MeasuredRun>& timed);
+                      std::vector<MeasuredRun>& plain, std::vector<MeasuredRun>& timed,
+                      double* round_trip_before_ns = nullptr);
 
 /// Removes the entry for `key` (the row is finished), and `partial_rows` once it is empty.
 void drop_partial_row(nlohmann::json& document, const RowKey& key);

@@ -117,6 +117,19 @@ TEST(SweepPartialRows, EntriesAreKeptPerRowReplacedTakenAndDropped) {
   EXPECT_FALSE(clothbench::harness::take_partial_row(document, {"guided:1", 1}, none_p, none_t));
   EXPECT_TRUE(none_p.empty() && none_t.empty());
 
+  // The core round trip before the row's first run goes with its runs (rows of 2 or more
+  // threads); none is written for a row without one.
+  EXPECT_FALSE(document["partial_rows"][0].contains("core_round_trip_before_ns"));
+  double trip = -1.0;
+  ASSERT_TRUE(clothbench::harness::take_partial_row(document, one, p, t, &trip));
+  EXPECT_EQ(trip, 0.0);
+  clothbench::harness::store_partial_row(document, two, plain, timed, 123.456789012345678);
+  document = through_text(document);
+  std::vector<MeasuredRun> p2, t2;
+  ASSERT_TRUE(clothbench::harness::take_partial_row(document, two, p2, t2, &trip));
+  EXPECT_EQ(trip, 123.456789012345678);
+  EXPECT_EQ(t2.size(), 1u);
+
   clothbench::harness::drop_partial_row(document, one);
   ASSERT_EQ(document["partial_rows"].size(), 1u);
   EXPECT_EQ(document["partial_rows"][0]["threads"], 2);
@@ -167,10 +180,12 @@ TEST(SweepPartialRows, ValidatorNamesADamagedEntry) {
   EXPECT_TRUE(clothbench::harness::validate_sweep_document(document).empty());
   document["partial_rows"][0]["plain"][0].erase("state_digest");
   document["partial_rows"][0]["timed"] = 3;
+  document["partial_rows"][0]["core_round_trip_before_ns"] = "fast";
   const auto problems = clothbench::harness::validate_sweep_document(document);
-  ASSERT_EQ(problems.size(), 2u);
-  EXPECT_THAT(problems[0], HasSubstr("partial_rows[0].plain[0]: run: missing key 'state_digest'"));
-  EXPECT_THAT(problems[1], HasSubstr("partial_rows[0].timed: expected array"));
+  ASSERT_EQ(problems.size(), 3u);
+  EXPECT_THAT(problems[0], HasSubstr("partial_rows[0].core_round_trip_before_ns: expected number"));
+  EXPECT_THAT(problems[1], HasSubstr("partial_rows[0].plain[0]: run: missing key 'state_digest'"));
+  EXPECT_THAT(problems[2], HasSubstr("partial_rows[0].timed: expected array"));
 }
 
 }  // namespace
