@@ -30,21 +30,8 @@
 
 namespace {
 
-namespace fs = std::filesystem;
+using namespace clothbench_test;  // the child-process helpers and the sweep fixture
 using nlohmann::json;
-
-const fs::path kScene = clothbench_test::kSweepScene;
-constexpr int kWaitSeconds = clothbench_test::kSweepWaitSeconds;
-
-using clothbench_test::binary;
-using clothbench_test::fresh_dir;
-using clothbench_test::kSanitized;
-using clothbench_test::Outcome;
-using clothbench_test::quote;
-using clothbench_test::read_json;
-using clothbench_test::run;
-using clothbench_test::row_keys;
-using clothbench_test::SweepBinary;
 
 TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
   const fs::path out = fresh_dir("schema");

@@ -1,6 +1,7 @@
 // The real `clothbench sweep` run as a child process on a tiny scene: what its integration
 // tests share (integration_sweep.cpp: the document, resume after a kill, oversubscription, bad
-// input; integration_sweep_stop.cpp: Ctrl-C and SIGTERM, stops inside a row).
+// input; integration_sweep_stop.cpp: Ctrl-C and SIGTERM, stops inside a row). Both take the
+// names of namespace clothbench_test whole (`using namespace`).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -19,12 +20,12 @@
 namespace clothbench_test {
 
 /// The tiny box drape every sweep test runs.
-inline const std::filesystem::path kSweepScene =
+inline const std::filesystem::path kScene =
     std::filesystem::path(CLOTHBENCH_SOURCE_DIR) / "tests/data/scenes/sweep-tiny.toml";
 
 /// Sanitizer builds run the kernel 10 to 20 times slower: there the sweeps repeat each run
 /// less, and waits are longer.
-inline constexpr int kSweepWaitSeconds = kSanitized ? 900 : 120;
+inline constexpr int kWaitSeconds = kSanitized ? 900 : 120;
 
 class SweepBinary : public ::testing::Test {
  protected:
