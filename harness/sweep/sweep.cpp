@@ -438,17 +438,14 @@ int run_sweep(const SweepOptions& options) {
                            static_cast<double>(plain.size() + timed.size()),
                        label);
     }
-    const auto repeat = static_cast<std::size_t>(options.repeat);
-    const auto row_complete = [&] {
-      return plain.size() >= repeat && (!instrumented || timed.size() >= repeat);
-    };
     // Stores a finished run; false when a stop was asked for meanwhile and the row still
     // needs runs (a row whose last run finished is completed before the sweep stops).
     auto keep = [&](std::vector<MeasuredRun>& list, MeasuredRun&& run) {
       list.push_back(std::move(run));
       store_partial_row(document, key, plain, timed, round_trip_before);
       write_outputs(document, options.output_dir);
-      return stop.signal() == 0 || row_complete();
+      return stop.signal() == 0 ||
+             plain.size() + timed.size() >= static_cast<std::size_t>(runs_per_row);
     };
     for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
       if (static_cast<std::size_t>(r) >= plain.size()) {
