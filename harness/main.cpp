@@ -198,6 +198,12 @@ int main(int argc, char** argv) {
       sweep_command->add_option("--repeat", sweep.repeat, "Measured runs per row and timing level")
           ->capture_default_str()
           ->check(CLI::Range(1, 1000));
+  sweep_command
+      ->add_option("--count-reference-after", sweep.count_reference_after_seconds,
+                   "Without a warm-up, a 1-thread reference run of at least this many seconds "
+                   "counts as its row's first run")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e9));
   auto* sweep_warmup_option =
       sweep_command
           ->add_option("--warmup-steps", sweep.warmup_steps,

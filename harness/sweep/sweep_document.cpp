@@ -203,6 +203,7 @@ json settings_json(const SweepOptions& options, const std::vector<int>& threads,
           {"threads", threads},
           {"repeat", options.repeat},
           {"warmup_steps", options.warmup_steps},
+          {"count_reference_after_seconds", options.count_reference_after_seconds},
           {"steps", steps},
           {"instrument", to_string(options.instrument)},
           {"bind", to_string(options.bind)},
@@ -492,13 +493,20 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   for (const char* k : {"name", "file", "hash", "source"}) expect(d["scene"], "scene", k, is_string, "string", p);
   expect(d["reference"], "reference", "state_digest", is_string, "string", p);
   // Absent in older documents.
+  if (d["reference"].contains("wall_seconds")) {
+    expect(d["reference"], "reference", "wall_seconds", is_number, "number", p);
+  }
+  for (const char* k : {"disturbed", "counted_in_row"}) {
+    if (d["reference"].contains(k)) expect(d["reference"], "reference", k, is_bool, "bool", p);
+  }
+  // Absent in older documents.
   each_entry(d, "sessions", p, [&](const json& session, const std::string& where) {
     expect(session, where, "started_utc", is_string, "string", p);
     expect(session, where, "rows_at_start", is_integer, "integer", p);
     expect(session, where, "reference", is_string, "string", p);
     if (session.is_object() && session.contains("reference") && session["reference"] != "run" &&
-        session["reference"] != "stored") {
-      p.push_back(where + ".reference: expected \"run\" or \"stored\"");
+        session["reference"] != "stored" && session["reference"] != "digest") {
+      p.push_back(where + ".reference: expected \"run\", \"stored\" or \"digest\"");
     }
   });
   // Present only while a row is unfinished.

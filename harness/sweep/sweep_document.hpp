@@ -3,10 +3,15 @@
 //
 //   schema "clothbench.sweep", schema_version 1, created_utc, updated_utc, complete (bool),
 //   command [argv], settings {schedulers, threads, repeat, warmup_steps, steps, instrument,
-//   bind, oversubscribe, retries, omp_wait_policy (the last two absent in older documents)},
+//   bind, oversubscribe, retries, omp_wait_policy, count_reference_after_seconds (the last
+//   three absent in older documents)},
 //   scene {name, file, hash, source}, machine (machine_context()), openmp_environment
-//   (openmp_environment()), reference {scheduler, threads, state_digest, state_bytes},
-//   sessions [{started_utc, load_average, rows_at_start, reference "run" | "stored"}] (one
+//   (openmp_environment()), reference {scheduler, threads, state_digest, state_bytes,
+//   verification_passed, wall_seconds, disturbed, counted_in_row (the reference run is the
+//   first uninstrumented run of its scheduler's 1-thread row; the last three absent in older
+//   documents)},
+//   sessions [{started_utc, load_average, rows_at_start, reference "run" | "stored" | "digest"
+//   (a resume compared its rows with the stored reference state, or by its digest)}] (one
 //   per start or --resume; absent in older documents; `machine` is the first session's, and a
 //   resume must match its build, compiler, processor, host, OpenMP runtime and allocator),
 //   rows [ROW ...],

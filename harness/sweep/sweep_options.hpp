@@ -30,6 +30,10 @@ struct SweepOptions {
   std::vector<int> threads;             ///< empty = default_thread_counts()
   int repeat = 3;                       ///< measured repetitions per row and timing level
   int warmup_steps = 2;                 ///< steps of the uncounted warm-up run per row (0: none)
+  /// A reference run at least this long counts as the first uninstrumented run of its
+  /// scheduler's 1-thread row when rows have no warm-up (a process's first run pays start-up
+  /// costs that a short run would show, a long one not).
+  double count_reference_after_seconds = 60.0;
   std::optional<int> steps;             ///< override the scene's step count
   kernels::Instrumentation instrument = kernels::Instrumentation::loops;
   BindMode bind = BindMode::none;

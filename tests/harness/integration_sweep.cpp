@@ -196,7 +196,9 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   const auto problems = clothbench::harness::validate_sweep_document(after);
   EXPECT_TRUE(problems.empty()) << problems.front();
 
-  // A stored state that is not the reference's is not trusted: the reference runs again.
+  // A stored state that is not the reference's is not trusted, and a missing one (a sweep
+  // continued from a copy of its sweep.json) is not needed: the reference does not run again,
+  // the rows are compared with its digest in sweep.json.
   auto drop_last_row = [&] {
     json d = read_json(killed / "sweep.json");
     d["rows"].erase(d["rows"].size() - 1);
@@ -205,14 +207,40 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   };
   drop_last_row();
   std::ofstream(killed / "reference-state.bin", std::ios::app) << 'x';
-  const Outcome rerun = run("sweep " + quote(kScene.string()) + " " + grid_text +
-                            quote(killed.string()) + " --resume");
-  ASSERT_EQ(rerun.exit_code, 0) << rerun.output;
+  const Outcome by_digest = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                                quote(killed.string()) + " --resume");
+  ASSERT_EQ(by_digest.exit_code, 0) << by_digest.output;
   const json third = read_json(killed / "sweep.json");
   ASSERT_EQ(third["sessions"].size(), 3u);
-  EXPECT_EQ(third["sessions"][2]["reference"], "run");
+  EXPECT_EQ(third["sessions"][2]["reference"], "digest");
+  EXPECT_EQ(third["reference"], after["reference"]) << "the reference entry is the first run's";
   EXPECT_EQ(third["rows"].size(), 8u);
   EXPECT_TRUE(third["rows"][7]["verification"]["bit_identical"].get<bool>());
+  EXPECT_TRUE(clothbench::harness::validate_sweep_document(third).empty());
+
+  drop_last_row();
+  fs::remove(killed / "reference-state.bin");
+  {  // a digest that is not the state's: the resumed row fails, and says how it compared
+    json d = read_json(killed / "sweep.json");
+    d["reference"]["state_digest"] = "0123456789abcdef";
+    std::ofstream(killed / "sweep.json") << d.dump(2);
+  }
+  const Outcome wrong_digest = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                                   quote(killed.string()) + " --resume");
+  EXPECT_EQ(wrong_digest.exit_code, 1) << wrong_digest.output;
+  const json fourth = read_json(killed / "sweep.json");
+  ASSERT_EQ(fourth["rows"].size(), 8u);
+  const json& failed = fourth["rows"][7]["verification"];
+  EXPECT_FALSE(failed["bit_identical"].get<bool>());
+  ASSERT_FALSE(failed["failures"].empty());
+  EXPECT_NE(failed["failures"][0].get<std::string>().find("compared by digest"), std::string::npos)
+      << failed.dump();
+  EXPECT_EQ(fourth["sessions"][3]["reference"], "digest");
+  {  // the right digest again for what follows
+    json d = read_json(killed / "sweep.json");
+    d["reference"]["state_digest"] = after["reference"]["state_digest"];
+    std::ofstream(killed / "sweep.json") << d.dump(2);
+  }
 
   // Rows from another machine or build are never mixed into one table.
   drop_last_row();
@@ -248,6 +276,46 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   EXPECT_NE(mismatch.output.find("--resume"), std::string::npos) << mismatch.output;
   fs::remove_all(killed);
   fs::remove_all(whole);
+}
+
+TEST_F(SweepBinary, WithoutAWarmUpTheReferenceRunIsItsRowsFirstRun) {
+  const fs::path out = fresh_dir("counted");
+  const std::string common = "sweep " + quote(kScene.string()) +
+                             " --schedulers active-lists,static --threads 2,1 --repeat 1 "
+                             "--retries 0 --no-plots --quiet --out " + quote(out.string());
+  const Outcome o = run(common + " --warmup-steps 0 --count-reference-after 0");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = read_json(out / "sweep.json");
+  EXPECT_TRUE(clothbench::harness::validate_sweep_document(d).empty());
+  EXPECT_FALSE(d.contains("partial_rows"));
+  const json& reference = d["reference"];
+  EXPECT_EQ(reference["threads"], 1);
+  // A reference run that other work disturbed (ctest -j) is not counted: the row measures its
+  // own first run, which the sweep may re-run when disturbed.
+  EXPECT_EQ(reference["counted_in_row"].get<bool>(), !reference["disturbed"].get<bool>());
+  ASSERT_EQ(d["rows"].size(), 4u);
+  for (const json& row : d["rows"]) {
+    EXPECT_EQ(row["verification"]["runs"], 2) << row["scheduler_canonical"];
+    if (row["scheduler_canonical"] != reference["scheduler"] || row["threads"] != 1) continue;
+    if (reference["counted_in_row"].get<bool>()) {  // the same run: the same clock reading
+      ASSERT_EQ(row["time_seconds"]["samples"].size(), 1u);
+      EXPECT_EQ(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
+    }
+  }
+  fs::remove_all(out);
+
+  // With a warm-up the row's runs follow its warm-up run, which the reference did not have;
+  // and a reference shorter than --count-reference-after (60 s by default) would bring the
+  // process's start-up into the row.
+  for (const char* other : {" --warmup-steps 1 --count-reference-after 0", " --warmup-steps 0"}) {
+    const Outcome warm = run(common + other);
+    ASSERT_EQ(warm.exit_code, 0) << warm.output;
+    const json w = read_json(out / "sweep.json");
+    EXPECT_FALSE(w["reference"]["counted_in_row"].get<bool>()) << other;
+    EXPECT_EQ(w["settings"]["count_reference_after_seconds"],
+              std::string(other).find("after 0") != std::string::npos ? 0.0 : 60.0);
+    fs::remove_all(out);
+  }
 }
 
 TEST_F(SweepBinary, OversubscribedRowsNeedTheFlagAndAreLabelledEverywhere) {

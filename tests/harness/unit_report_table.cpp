@@ -154,15 +154,25 @@ TEST(ReportTable, ValidatorChecksTheSessionsOfAResumedSweep) {
                                {{"started_utc", "2026-11-30T01:00:00Z"},
                                 {"load_average", {0.1, 0.2, 0.3}},
                                 {"rows_at_start", 2},
-                                {"reference", "stored"}}});
+                                {"reference", "stored"}},
+                               {{"started_utc", "2026-11-30T02:00:00Z"},
+                                {"load_average", {0.1, 0.2, 0.3}},
+                                {"rows_at_start", 3},
+                                {"reference", "digest"}}});
+  d["reference"]["wall_seconds"] = 12.5;
+  d["reference"]["disturbed"] = false;
+  d["reference"]["counted_in_row"] = true;
   EXPECT_TRUE(clothbench::harness::validate_sweep_document(d).empty());
   d["sessions"][1]["reference"] = "guessed";
+  d["reference"]["counted_in_row"] = "yes";
   d["sessions"][0].erase("rows_at_start");
   const auto problems = clothbench::harness::validate_sweep_document(d);
   std::string all;
   for (const auto& p : problems) all += p + "\n";
-  EXPECT_NE(all.find("sessions[1].reference: expected \"run\" or \"stored\""), std::string::npos)
+  EXPECT_NE(all.find("sessions[1].reference: expected \"run\", \"stored\" or \"digest\""),
+            std::string::npos)
       << all;
+  EXPECT_NE(all.find("reference.counted_in_row: expected bool"), std::string::npos) << all;
   EXPECT_NE(all.find("sessions[0]: missing key 'rows_at_start'"), std::string::npos) << all;
   d["sessions"] = "yesterday";
   EXPECT_FALSE(clothbench::harness::validate_sweep_document(d).empty());
