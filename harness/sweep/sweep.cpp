@@ -131,12 +131,15 @@ void write_outputs(json& document, const std::filesystem::path& dir) {
 }
 
 /// Machine context fields (JSON pointers) that a resumed sweep must share with the rows it
-/// continues: the build, the compiler, the processor, the host, the OpenMP runtime and the
-/// allocator policy. Load, date and kernel release may differ (each session's are recorded).
+/// continues: the build, the compiler, the processor (its caches too: a VM's model name can be
+/// the same on two processor generations, "Intel(R) Xeon(R) Processor"), the host, the OpenMP
+/// runtime and the allocator policy. Load, date and kernel release may differ (each session's
+/// are recorded).
 constexpr const char* kResumeMachineFields[] = {
     "/build/git_revision", "/build/type",   "/build/flags",   "/compiler",
     "/cpu/model",          "/cpu/packages", "/cpu/cores",     "/cpu/pus",
-    "/hostname",           "/openmp/runtime/name",            "/memory/allocator"};
+    "/cpu/caches",         "/hostname",     "/openmp/runtime/name",
+    "/memory/allocator"};
 
 /// The existing document of a resumed sweep, after checking it matches this sweep.
 json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,

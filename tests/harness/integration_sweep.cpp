@@ -253,8 +253,18 @@ TEST_F(SweepBinary, ResumeAfterKillMatchesUninterruptedSweep) {
   EXPECT_NE(elsewhere.output.find("machine.cpu.model = \"Some Other CPU\""), std::string::npos)
       << elsewhere.output;
   EXPECT_EQ(read_json(killed / "sweep.json")["rows"].size(), 7u) << "nothing is lost";
-  // Nor rows measured another way: here fewer repetitions a row.
+  // A VM's processor name can be the same on two generations: the caches tell them apart.
   moved["machine"]["cpu"]["model"] = partial["machine"]["cpu"]["model"];
+  moved["machine"]["cpu"]["caches"]["L3"] = nullptr;
+  std::ofstream(killed / "sweep.json") << moved.dump(2);
+  const Outcome other_caches = run("sweep " + quote(kScene.string()) + " " + grid_text +
+                                   quote(killed.string()) + " --resume");
+  EXPECT_EQ(other_caches.exit_code, 2) << other_caches.output;
+  EXPECT_NE(other_caches.output.find("machine.cpu.caches = "), std::string::npos)
+      << other_caches.output;
+  EXPECT_EQ(read_json(killed / "sweep.json")["rows"].size(), 7u) << "nothing is lost";
+  // Nor rows measured another way: here fewer repetitions a row.
+  moved["machine"]["cpu"]["caches"] = partial["machine"]["cpu"]["caches"];
   std::ofstream(killed / "sweep.json") << moved.dump(2);
   const Outcome fewer = run("sweep " + quote(kScene.string()) +
                             " --schedulers static,dynamic:2,guided:1,active-lists --threads 1,2"
