@@ -32,9 +32,22 @@ inline constexpr double kMassTolerance = 1e-12;
 /// under 50 g, reached 0.47), even while every value is still finite.
 inline constexpr double kMaxStrain = 1.0;
 
+/// What a state's bytes are checked against: the reference's state_bytes(), or only their
+/// digest (a sweep resumed after its stored reference state was lost), with which a
+/// difference is found but not the byte where it starts.
+struct StateReference {
+  std::optional<std::string> bytes;  ///< state_bytes() of the reference, when kept
+  std::string digest;                ///< FNV-1a 64 of those bytes (fnv1a64_hex)
+  /// A reference whose bytes are known; its digest is computed from them.
+  static StateReference of_bytes(std::string bytes);
+  /// A reference known only by its digest.
+  static StateReference of_digest(std::string digest);
+};
+
 /// How a state's final bytes compare with a reference's (state_bytes of both).
 struct ReferenceComparison {
   bool identical = true;
+  bool by_digest = false;            ///< only the digests were compared: no first_difference
   std::string reference_digest;      ///< FNV-1a 64 of the reference bytes
   std::size_t first_difference = 0;  ///< first differing byte (the common length if one is a prefix)
   std::size_t size = 0;              ///< bytes of the state
@@ -65,22 +78,27 @@ std::string state_digest(const kernels::Simulation& simulation);
 ReferenceComparison compare_state(const kernels::Simulation& simulation,
                                   const std::string& reference_bytes);
 
+/// How the state compares with `reference`: byte by byte when its bytes are kept, else by
+/// digest (`by_digest`).
+ReferenceComparison compare_state(const kernels::Simulation& simulation,
+                                  const StateReference& reference);
+
 /// Measures the figures of the current state of `simulation` from its diagnostics `d`; with
-/// `reference_bytes` also its digest and the comparison with the reference.
+/// a `reference` also its digest and the comparison with the reference.
 StateFigures measure_state(const kernels::Simulation& simulation,
                            const kernels::StateDiagnostics& d,
-                           const std::string* reference_bytes = nullptr);
+                           const StateReference* reference = nullptr);
 
 /// One line per criterion `figures` breaks, without a step prefix: a non-finite value, a mass
 /// error above kMassTolerance (a NaN error fails too), a ghost off its midpoint (a crack), a
 /// particle inside an obstacle, an edge strain above kMaxStrain (a blown-up state), bytes that
-/// differ from the reference.
+/// differ from the reference (saying where, or that only the digests were compared).
 std::vector<std::string> judge_state(const StateFigures& figures);
 
 /// Measures and judges the current state of `simulation` (after step `step`): every failure
 /// goes to `verification` as "step N: ..."; returns the figures, digest always included.
 StateFigures verify_state(const kernels::Simulation& simulation, int step,
                           Verification& verification,
-                          const std::string* reference_bytes = nullptr);
+                          const StateReference* reference = nullptr);
 
 }  // namespace clothbench::harness

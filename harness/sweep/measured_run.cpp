@@ -43,7 +43,7 @@ OverheadAccounting account(const kernels::LoopTimes& times, double wall_seconds,
 
 MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver& driver,
                         int steps, kernels::Instrumentation instrumentation,
-                        const std::string* reference_bytes) {
+                        const StateReference* reference) {
   MeasuredRun run;
   run.instrumentation = instrumentation;
   kernels::LoopTimes times;
@@ -79,7 +79,7 @@ MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver&
     run.verification.fail(fmt::format("step {}: non-finite cost", run.steps_done));
   }
   const StateFigures figures =
-      verify_state(simulation, simulation.steps_done(), run.verification, reference_bytes);
+      verify_state(simulation, simulation.steps_done(), run.verification, reference);
   run.mass_error = figures.mass_error;
   run.finite = figures.finite && finite_cost;
   run.state_digest = figures.state_digest;

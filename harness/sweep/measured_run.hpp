@@ -58,11 +58,11 @@ struct MeasuredRun {
 /// Runs `steps` steps of `simulation` (fresh, thread count already set with
 /// omp_set_num_threads) through `driver`, timing with `instrumentation`, then verifies the
 /// final state with the one verifier (verify_state: finite, mass, no crack, no particle
-/// inside an obstacle, and - when `reference_bytes` is not null - bit-identity of
-/// state_bytes() to it) and the steps' costs finite.
+/// inside an obstacle, and - when `reference` is not null - bit-identity of state_bytes()
+/// to it) and the steps' costs finite.
 MeasuredRun measure_run(kernels::Simulation& simulation, schedulers::LoopDriver& driver,
                         int steps, kernels::Instrumentation instrumentation,
-                        const std::string* reference_bytes);
+                        const StateReference* reference);
 
 /// Computes the derived fields of `a` (components, percent, CV) from a LoopTimes and the
 /// two clocks. Exposed for the accounting tests.

@@ -46,7 +46,7 @@ struct GridScheduler {
 
 /// Builds and runs one fresh simulation with `threads` threads.
 MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int threads, int steps,
-                      kernels::Instrumentation level, const std::string* reference,
+                      kernels::Instrumentation level, const StateReference* reference,
                       std::unique_ptr<kernels::Simulation>* keep = nullptr) {
   omp_set_num_threads(threads);
   auto simulation = std::make_unique<kernels::Simulation>(scene.simulation);
@@ -67,14 +67,14 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
 constexpr double kLargestRepeatedTraceBytes = 256.0 * 1024 * 1024;
 
 void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int threads, int runs,
-                    const std::string* reference_bytes, const std::string& reference_digest,
-                    const std::filesystem::path& dir, const json& models, bool quiet) {
+                    const StateReference& reference, const std::filesystem::path& dir,
+                    const json& models, bool quiet) {
   omp_set_num_threads(threads);
   struct Traced {
     double seconds = 0.0;
     std::unique_ptr<kernels::ChunkTrace> trace;
     std::string digest;
-    bool identical = false;  // the final state equals the reference's bytes (or digest)
+    bool identical = false;  // the final state equals the reference (bytes, or digest)
   };
   std::vector<Traced> traced;
   std::vector<double> all_seconds;
@@ -89,8 +89,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
           simulation.step(driver, kernels::Instrumentation::off, nullptr, t.trace.get()).seconds;
     }
     t.digest = state_digest(simulation);
-    t.identical = reference_bytes != nullptr ? compare_state(simulation, *reference_bytes).identical
-                                             : t.digest == reference_digest;
+    t.identical = compare_state(simulation, reference).identical;
     all_seconds.push_back(t.seconds);
     const bool large = static_cast<double>(t.trace->chunk_count()) *
                            static_cast<double>(sizeof(kernels::ChunkRecord)) >
@@ -232,18 +231,6 @@ std::string shell_quoted(const std::string& word) {
   return quoted + "'";
 }
 
-/// A run of a resumed sweep whose stored reference state is missing or not the one sweep.json
-/// names: its final state is compared with the reference by digest (FNV-1a 64 of the same
-/// bytes), so only where the two first differ is not known.
-void compare_by_digest(MeasuredRun& run, const std::string& reference_digest) {
-  if (run.state_digest == reference_digest) return;
-  run.bit_identical = false;
-  run.verification.fail(fmt::format(
-      "step {}: final state differs from the 1-thread reference (digest {} vs {}; compared by "
-      "digest, the reference's state file was not kept)",
-      run.steps_done, run.state_digest, reference_digest));
-}
-
 /// The command line of this sweep with --resume: what continues an interrupted sweep.
 std::string resume_command(const SweepOptions& options) {
   std::vector<std::string> words = options.command_line;
@@ -314,32 +301,29 @@ int run_sweep(const SweepOptions& options) {
   // A resumed sweep never runs the reference again: it compares its rows with the reference
   // state stored by the session that ran it, or, when that file is missing or not the one
   // sweep.json names (a sweep continued from a copy of its sweep.json), with its digest.
-  std::string reference_bytes;
-  std::string reference_digest;
+  StateReference reference;
   std::string reference_source = "run";
   if (resuming) {
     std::string why;
-    reference_digest = document["reference"]["state_digest"].get<std::string>();
+    reference = StateReference::of_digest(document["reference"]["state_digest"].get<std::string>());
     if (std::optional<std::string> stored =
-            stored_reference_state(options.output_dir, reference_digest, why)) {
-      reference_bytes = std::move(*stored);
+            stored_reference_state(options.output_dir, reference.digest, why)) {
+      reference.bytes = std::move(*stored);
       reference_source = "stored";
       if (!options.quiet) {
         fmt::print("  reference: the stored final state of the 1-thread reference run ({}, "
                    "digest {}), not run again\n",
-                   reference_file.string(), reference_digest);
+                   reference_file.string(), reference.digest);
       }
     } else {
       reference_source = "digest";
       if (!options.quiet) {
         fmt::print("  reference: {}; the rows are compared with the reference's digest {} "
                    "(not run again)\n",
-                   why, reference_digest);
+                   why, reference.digest);
       }
     }
   }
-  const std::string* reference_pointer =
-      reference_source == "digest" ? nullptr : &reference_bytes;
   // The cloth picture comes from the reference run, right after it: the reference's simulation
   // is not kept while the rows run (at the paper's size it is most of a run's memory).
   PlotOutcome cloth;
@@ -347,16 +331,15 @@ int run_sweep(const SweepOptions& options) {
   std::optional<MeasuredRun> reference_run;
   if (reference_source == "run") {
     std::unique_ptr<kernels::Simulation> reference_simulation;
-    const MeasuredRun& reference = reference_run.emplace(
+    const MeasuredRun& run = reference_run.emplace(
         fresh_run(scene, *schedulers::make_driver(grid.front().given), 1, scene.steps,
                   kernels::Instrumentation::off, nullptr, &reference_simulation));
-    reference_bytes = state_bytes(*reference_simulation);
-    reference_digest = reference.state_digest;
-    if (!reference.verification.passed && !options.quiet) {
+    reference = StateReference::of_bytes(state_bytes(*reference_simulation));
+    if (!run.verification.passed && !options.quiet) {
       fmt::print("  warning: the reference run itself fails verification: {}\n",
-                 reference.verification.failures.front());
+                 run.verification.failures.front());
     }
-    write_file_atomically(reference_file, reference_bytes);
+    write_file_atomically(reference_file, *reference.bytes);
     if (options.plots && gnuplot_available()) {
       cloth = plot_cloth(cloth_picture(*reference_simulation),
                          fmt::format("{} after {} steps", scene.name, scene.steps),
@@ -364,11 +347,11 @@ int run_sweep(const SweepOptions& options) {
     }
     reference_entry = {{"scheduler", grid.front().canonical},
                        {"threads", 1},
-                       {"state_digest", reference.state_digest},
-                       {"state_bytes", reference_bytes.size()},
-                       {"verification_passed", reference.verification.passed},
-                       {"wall_seconds", reference.accounting.wall_seconds},
-                       {"disturbed", reference.disturbance.disturbed},
+                       {"state_digest", run.state_digest},
+                       {"state_bytes", reference.bytes->size()},
+                       {"verification_passed", run.verification.passed},
+                       {"wall_seconds", run.accounting.wall_seconds},
+                       {"disturbed", run.disturbance.disturbed},
                        {"counted_in_row", false}};
   }
   if (!resuming) {
@@ -461,9 +444,7 @@ int run_sweep(const SweepOptions& options) {
     // caller keeps it, then stops.
     auto repetition = [&](kernels::Instrumentation level) -> std::optional<MeasuredRun> {
       auto measured = [&] {
-        MeasuredRun run = fresh_run(scene, *driver, n, scene.steps, level, reference_pointer);
-        if (reference_pointer == nullptr) compare_by_digest(run, reference_digest);
-        return run;
+        return fresh_run(scene, *driver, n, scene.steps, level, &reference);
       };
       MeasuredRun run = measured();
       for (int retry = 0; retry < options.retries && run.disturbance.disturbed; ++retry) {
@@ -507,8 +488,8 @@ int run_sweep(const SweepOptions& options) {
     const double round_trip_after = n >= 2 ? core_round_trip_ns() : 0.0;
     if (options.trace_dir) {
       if (stop.signal() != 0) return std::nullopt;  // the resume makes the traced runs
-      traced_row_run(scene, *driver, n, std::min(3, options.repeat), reference_pointer,
-                     reference_digest, *options.trace_dir, trace_models, options.quiet);
+      traced_row_run(scene, *driver, n, std::min(3, options.repeat), reference,
+                     *options.trace_dir, trace_models, options.quiet);
       if (stop.signal() != 0) return std::nullopt;
     }
     json binding = {{"mode", to_string(options.bind)},

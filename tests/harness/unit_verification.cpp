@@ -203,14 +203,16 @@ std::string reference_bytes(int steps) {
   return harness::state_bytes(sim);
 }
 
-/// A measured run of the sheet with `threads` threads against `reference`.
+/// A measured run of the sheet with `threads` threads against the reference state
+/// `reference_bytes`.
 harness::MeasuredRun measured(const std::string& scheduler, int threads, int steps,
-                              const std::string* reference) {
+                              const std::string& reference_bytes) {
+  const harness::StateReference reference = harness::StateReference::of_bytes(reference_bytes);
   omp_set_num_threads(threads);
   kernels::Simulation sim(sheet_on_box());
   const auto driver = schedulers::make_driver(scheduler);
   harness::MeasuredRun run =
-      harness::measure_run(sim, *driver, steps, kernels::Instrumentation::loops, reference);
+      harness::measure_run(sim, *driver, steps, kernels::Instrumentation::loops, &reference);
   omp_set_num_threads(1);
   return run;
 }
@@ -271,7 +273,7 @@ TEST(StateDigest, IsTheHashOfTheStateBytesAndComparesInPlace) {
 
 TEST(SweepVerification, OneFlippedByteOfTheReferenceFails) {
   const std::string reference = reference_bytes(2);
-  const harness::MeasuredRun same = measured("dynamic:1", 2, 2, &reference);
+  const harness::MeasuredRun same = measured("dynamic:1", 2, 2, reference);
   ASSERT_TRUE(same.verification.passed) << ::testing::PrintToString(same.verification.failures);
   EXPECT_TRUE(same.bit_identical);
 
@@ -279,7 +281,7 @@ TEST(SweepVerification, OneFlippedByteOfTheReferenceFails) {
   std::string flipped = reference;
   const std::size_t at = flipped.size() / 5 + 3;
   flipped[at] = static_cast<char>(flipped[at] ^ 0x01);
-  const harness::MeasuredRun run = measured("dynamic:1", 2, 2, &flipped);
+  const harness::MeasuredRun run = measured("dynamic:1", 2, 2, flipped);
   EXPECT_FALSE(run.verification.passed);
   EXPECT_FALSE(run.bit_identical);
   ASSERT_EQ(run.verification.failures.size(), 1u);
@@ -291,7 +293,50 @@ TEST(SweepVerification, OneFlippedByteOfTheReferenceFails) {
 
   // A reference of another length (e.g. another mesh) fails too.
   const std::string shorter = reference.substr(0, reference.size() - 8);
-  EXPECT_FALSE(measured("static", 1, 2, &shorter).verification.passed);
+  EXPECT_FALSE(measured("static", 1, 2, shorter).verification.passed);
+}
+
+TEST(SweepVerification, AReferenceKnownOnlyByItsDigestFindsADifferenceButNotWhere) {
+  const std::string bytes = reference_bytes(2);
+  std::string flipped = bytes;
+  flipped[flipped.size() / 3] = static_cast<char>(flipped[flipped.size() / 3] ^ 0x04);
+  const std::string right = harness::fnv1a64_hex(bytes);
+  const std::string wrong = harness::fnv1a64_hex(flipped);
+
+  omp_set_num_threads(1);
+  kernels::Simulation sim(sheet_on_box());
+  simulate_passing(sim, 2);
+  const harness::ReferenceComparison same =
+      harness::compare_state(sim, harness::StateReference::of_digest(right));
+  EXPECT_TRUE(same.identical);
+  EXPECT_TRUE(same.by_digest);
+  EXPECT_EQ(same.size, bytes.size());
+  const harness::ReferenceComparison other =
+      harness::compare_state(sim, harness::StateReference::of_digest(wrong));
+  EXPECT_FALSE(other.identical);
+  EXPECT_TRUE(other.by_digest);
+  EXPECT_EQ(other.reference_digest, wrong);
+  // With the bytes the comparison is made byte by byte, whatever the digest says.
+  EXPECT_FALSE(harness::compare_state(sim, harness::StateReference::of_bytes(flipped)).by_digest);
+
+  // measure_run through the one verifier: passes with the right digest, fails with a wrong
+  // one, and the failure says the digests were compared.
+  schedulers::OmpStaticDriver driver;
+  const harness::StateReference by_right = harness::StateReference::of_digest(right);
+  const harness::StateReference by_wrong = harness::StateReference::of_digest(wrong);
+  const harness::MeasuredRun pass =
+      harness::measure_run(sim, driver, 0, kernels::Instrumentation::off, &by_right);
+  EXPECT_TRUE(pass.verification.passed) << ::testing::PrintToString(pass.verification.failures);
+  EXPECT_TRUE(pass.bit_identical);
+  const harness::MeasuredRun fail =
+      harness::measure_run(sim, driver, 0, kernels::Instrumentation::off, &by_wrong);
+  EXPECT_FALSE(fail.verification.passed);
+  EXPECT_FALSE(fail.bit_identical);
+  ASSERT_EQ(fail.verification.failures.size(), 1u);
+  EXPECT_THAT(fail.verification.failures[0],
+              HasSubstr("step 2: final state differs from the 1-thread reference (digest " + right +
+                        " vs " + wrong + ", compared by digest"));
+  EXPECT_THAT(fail.verification.failures[0], ::testing::Not(HasSubstr("first differing byte")));
 }
 
 TEST(SweepVerification, AMassOffBy1e11Fails) {
@@ -332,10 +377,10 @@ TEST(SweepVerification, AFailedRowShowsNoSpeedup) {
   std::string flipped = reference;
   flipped[flipped.size() / 2] = static_cast<char>(flipped[flipped.size() / 2] ^ 0x10);
   const json binding = {{"mode", "none"}, {"bound", false}, {"threads", json::array()}};
-  const auto one = undisturbed({measured("static", 1, 2, &reference)});
-  const auto two = undisturbed({measured("static", 2, 2, &flipped)});
-  const auto two_good = undisturbed({measured("dynamic:1", 2, 2, &reference)});
-  const auto one_good = undisturbed({measured("dynamic:1", 1, 2, &reference)});
+  const auto one = undisturbed({measured("static", 1, 2, reference)});
+  const auto two = undisturbed({measured("static", 2, 2, flipped)});
+  const auto two_good = undisturbed({measured("dynamic:1", 2, 2, reference)});
+  const auto one_good = undisturbed({measured("dynamic:1", 1, 2, reference)});
   const auto level = kernels::Instrumentation::loops;
   json document = {
       {"schema", "clothbench.sweep"},
