@@ -24,6 +24,28 @@ void for_each_state_array(const kernels::Simulation& simulation, F&& f) {
   }
 }
 
+/// The state's bytes against `reference_bytes` (a state_bytes()), array by array in place:
+/// size, first_difference and identical, nothing hashed.
+ReferenceComparison compare_bytes(const kernels::Simulation& simulation,
+                                  std::string_view reference_bytes) {
+  ReferenceComparison c;
+  bool differs = false;
+  for_each_state_array(simulation, [&](std::string_view array) {
+    const std::size_t at = c.size;
+    c.size += array.size();
+    if (differs || at >= reference_bytes.size()) return;
+    const std::string_view reference = reference_bytes.substr(at, array.size());
+    const auto mine =
+        std::mismatch(array.begin(), array.begin() + static_cast<std::ptrdiff_t>(reference.size()),
+                      reference.begin())
+            .first;
+    c.first_difference = at + static_cast<std::size_t>(mine - array.begin());
+    differs = mine != array.begin() + static_cast<std::ptrdiff_t>(reference.size());
+  });
+  c.identical = !differs && c.size == reference_bytes.size();
+  return c;
+}
+
 }  // namespace
 
 std::string state_bytes(const kernels::Simulation& simulation) {
@@ -41,28 +63,6 @@ std::string state_digest(const kernels::Simulation& simulation) {
   return hash.hex();
 }
 
-ReferenceComparison compare_state(const kernels::Simulation& simulation,
-                                  const std::string& reference_bytes) {
-  ReferenceComparison c;
-  c.reference_digest = fnv1a64_hex(reference_bytes);
-  bool differs = false;
-  for_each_state_array(simulation, [&](std::string_view array) {
-    const std::size_t at = c.size;
-    c.size += array.size();
-    if (differs || at >= reference_bytes.size()) return;
-    const std::string_view reference =
-        std::string_view(reference_bytes).substr(at, array.size());
-    const auto mine =
-        std::mismatch(array.begin(), array.begin() + static_cast<std::ptrdiff_t>(reference.size()),
-                      reference.begin())
-            .first;
-    c.first_difference = at + static_cast<std::size_t>(mine - array.begin());
-    differs = mine != array.begin() + static_cast<std::ptrdiff_t>(reference.size());
-  });
-  c.identical = !differs && c.size == reference_bytes.size();
-  return c;
-}
-
 StateReference StateReference::of_bytes(std::string bytes) {
   StateReference r;
   r.digest = fnv1a64_hex(bytes);
@@ -77,13 +77,18 @@ StateReference StateReference::of_digest(std::string digest) {
 }
 
 ReferenceComparison compare_state(const kernels::Simulation& simulation,
-                                  const StateReference& reference) {
-  if (reference.bytes) return compare_state(simulation, *reference.bytes);
+                                  const StateReference& reference,
+                                  std::string_view known_digest) {
   ReferenceComparison c;
-  c.by_digest = true;
+  if (reference.bytes) {
+    c = compare_bytes(simulation, *reference.bytes);
+  } else {
+    c.by_digest = true;
+    for_each_state_array(simulation, [&](std::string_view array) { c.size += array.size(); });
+    c.identical = (known_digest.empty() ? state_digest(simulation) : std::string(known_digest)) ==
+                  reference.digest;
+  }
   c.reference_digest = reference.digest;
-  for_each_state_array(simulation, [&](std::string_view array) { c.size += array.size(); });
-  c.identical = state_digest(simulation) == reference.digest;
   return c;
 }
 
@@ -102,7 +107,7 @@ StateFigures measure_state(const kernels::Simulation& simulation,
       simulation.obstacles().empty() ? 0.0 : std::max(0.0, -d.min_particle_distance);
   if (reference != nullptr) {
     f.state_digest = state_digest(simulation);
-    f.reference = compare_state(simulation, *reference);
+    f.reference = compare_state(simulation, *reference, f.state_digest);
   }
   return f;
 }

@@ -7,6 +7,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "kernels/simulation.hpp"
@@ -74,14 +75,14 @@ std::string state_bytes(const kernels::Simulation& simulation);
 /// at the paper's 1001^2).
 std::string state_digest(const kernels::Simulation& simulation);
 
-/// How the state's bytes compare with `reference_bytes` (a state_bytes()), read in place.
+/// How the state compares with `reference`: byte by byte, read in place, when its bytes are
+/// kept, else by digest (`by_digest`). Neither side is hashed twice: the reference's digest
+/// is the one it carries, and `known_digest`, when given, is taken as the state's own
+/// (state_digest(simulation), already computed by the caller) instead of hashing the state
+/// again (56 MB at the paper's 1001^2).
 ReferenceComparison compare_state(const kernels::Simulation& simulation,
-                                  const std::string& reference_bytes);
-
-/// How the state compares with `reference`: byte by byte when its bytes are kept, else by
-/// digest (`by_digest`).
-ReferenceComparison compare_state(const kernels::Simulation& simulation,
-                                  const StateReference& reference);
+                                  const StateReference& reference,
+                                  std::string_view known_digest = {});
 
 /// Measures the figures of the current state of `simulation` from its diagnostics `d`; with
 /// a `reference` also its digest and the comparison with the reference.

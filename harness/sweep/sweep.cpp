@@ -89,7 +89,7 @@ void traced_row_run(const Scene& scene, schedulers::LoopDriver& driver, int thre
           simulation.step(driver, kernels::Instrumentation::off, nullptr, t.trace.get()).seconds;
     }
     t.digest = state_digest(simulation);
-    t.identical = compare_state(simulation, reference).identical;
+    t.identical = compare_state(simulation, reference, t.digest).identical;
     all_seconds.push_back(t.seconds);
     const bool large = static_cast<double>(t.trace->chunk_count()) *
                            static_cast<double>(sizeof(kernels::ChunkRecord)) >
@@ -391,10 +391,10 @@ int run_sweep(const SweepOptions& options) {
   // (the tiny test scene's first run is about 1.5x its later ones), it becomes that row's first
   // run instead of being thrown away. At the paper's size it is the longest run of the sweep
   // (about 53 minutes on a 2-core VM).
-  if (reference_run && !resuming && options.warmup_steps == 0 &&
-      options.bind == BindMode::none && !reference_run->disturbance.disturbed &&
-      reference_run->accounting.wall_seconds >= options.count_reference_after_seconds &&
-      std::find(threads.begin(), threads.end(), 1) != threads.end()) {
+  if (reference_run &&
+      reference_counts_in_row(options, threads,
+                              {resuming, reference_run->disturbance.disturbed,
+                               reference_run->accounting.wall_seconds})) {
     store_partial_row(document, {grid.front().canonical, 1}, {*reference_run}, {});
     document["reference"]["counted_in_row"] = true;
     if (!options.quiet) {

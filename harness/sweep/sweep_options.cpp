@@ -74,6 +74,14 @@ std::vector<int> default_thread_counts(int cores) {
   return counts;
 }
 
+bool reference_counts_in_row(const SweepOptions& options, const std::vector<int>& threads,
+                             const ReferenceRunFacts& reference) {
+  return !reference.resuming && options.warmup_steps == 0 && options.bind == BindMode::none &&
+         !reference.disturbed &&
+         reference.wall_seconds >= options.count_reference_after_seconds &&
+         std::find(threads.begin(), threads.end(), 1) != threads.end();
+}
+
 kernels::Instrumentation parse_instrumentation(std::string_view text) {
   if (text == "off") return kernels::Instrumentation::off;
   if (text == "loops") return kernels::Instrumentation::loops;

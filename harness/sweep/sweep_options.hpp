@@ -67,6 +67,23 @@ std::vector<int> parse_thread_list(std::string_view text, const char* flag);
 /// 1,2,4,6 on 6 cores). `cores` comes from hwloc (physical cores).
 std::vector<int> default_thread_counts(int cores);
 
+/// What the sweep knows of its reference run (an uninstrumented 1-thread run of the first
+/// scheduler, measured like a row's runs) when it decides whether to count it.
+struct ReferenceRunFacts {
+  bool resuming = false;     ///< the sweep continues an earlier one (--resume)
+  bool disturbed = false;    ///< other work on the machine disturbed it (disturbance.hpp)
+  double wall_seconds = 0.0;
+};
+
+/// Whether the reference run counts as the first uninstrumented run of its scheduler's
+/// 1-thread row instead of being thrown away: only in a fresh sweep (not resuming) with a
+/// 1-thread row in `threads`, whose rows have no warm-up and no binding (the reference had
+/// neither, so it was measured exactly as they are), and only when the run was undisturbed and
+/// at least options.count_reference_after_seconds long (a short run would carry the process's
+/// start-up costs into the row).
+bool reference_counts_in_row(const SweepOptions& options, const std::vector<int>& threads,
+                             const ReferenceRunFacts& reference);
+
 /// "off" | "loops" | "chunks" and back.
 kernels::Instrumentation parse_instrumentation(std::string_view text);
 std::string to_string(kernels::Instrumentation instrumentation);

@@ -197,6 +197,37 @@ TEST(SweepOptions, ThreadListsAndErrors) {
   EXPECT_EQ(clothbench::harness::default_thread_counts(1), (std::vector<int>{1}));
 }
 
+TEST(SweepOptions, TheReferenceRunCountsInItsRowOnlyWhenMeasuredAsTheRowsRunsAre) {
+  using clothbench::harness::BindMode;
+  using clothbench::harness::ReferenceRunFacts;
+  using clothbench::harness::reference_counts_in_row;
+  clothbench::harness::SweepOptions options;
+  options.warmup_steps = 0;
+  options.count_reference_after_seconds = 60.0;
+  const std::vector<int> threads = {2, 1};
+  const ReferenceRunFacts counted{false, false, 60.0};  // exactly the threshold counts
+  EXPECT_TRUE(reference_counts_in_row(options, threads, counted));
+  EXPECT_TRUE(reference_counts_in_row(options, threads, {false, false, 3600.0}));
+
+  // Each condition alone keeps it out of the row.
+  EXPECT_FALSE(reference_counts_in_row(options, threads, {true, false, 3600.0}));  // resuming
+  EXPECT_FALSE(reference_counts_in_row(options, threads, {false, true, 3600.0}));  // disturbed
+  EXPECT_FALSE(reference_counts_in_row(options, threads, {false, false, 59.9}));   // too short
+  EXPECT_FALSE(reference_counts_in_row(options, {2, 4}, counted));  // no 1-thread row
+  clothbench::harness::SweepOptions warm = options;
+  warm.warmup_steps = 1;  // the rows' runs follow a warm-up the reference did not have
+  EXPECT_FALSE(reference_counts_in_row(warm, threads, counted));
+  clothbench::harness::SweepOptions bound = options;
+  bound.bind = BindMode::core;  // the rows' threads are pinned, the reference's were not
+  EXPECT_FALSE(reference_counts_in_row(bound, threads, counted));
+  clothbench::harness::SweepOptions never = options;
+  never.count_reference_after_seconds = 1e9;
+  EXPECT_FALSE(reference_counts_in_row(never, threads, {false, false, 3600.0}));
+  // The defaults (a 2-step warm-up per row) never count it.
+  EXPECT_FALSE(
+      reference_counts_in_row(clothbench::harness::SweepOptions{}, threads, {false, false, 1e6}));
+}
+
 TEST(SweepStatistics, MedianIsTheLowerMiddleSample) {
   using clothbench::harness::median_index;
   EXPECT_EQ(median_index({3.0, 1.0, 2.0}), 2u);

@@ -243,7 +243,8 @@ TEST(StateDigest, IsTheHashOfTheStateBytesAndComparesInPlace) {
   ASSERT_EQ(bytes.size(), positions + forces + state.triple_moment.size() * sizeof(double));
   EXPECT_EQ(harness::state_digest(sim), harness::fnv1a64_hex(bytes));
 
-  const harness::ReferenceComparison same = harness::compare_state(sim, bytes);
+  const harness::ReferenceComparison same =
+      harness::compare_state(sim, harness::StateReference::of_bytes(bytes));
   EXPECT_TRUE(same.identical);
   EXPECT_EQ(same.size, bytes.size());
   EXPECT_EQ(same.first_difference, bytes.size());
@@ -254,7 +255,8 @@ TEST(StateDigest, IsTheHashOfTheStateBytesAndComparesInPlace) {
                                positions + forces, bytes.size() - 1}) {
     std::string reference = bytes;
     reference[at] = static_cast<char>(reference[at] ^ 0x10);
-    const harness::ReferenceComparison c = harness::compare_state(sim, reference);
+    const harness::ReferenceComparison c =
+        harness::compare_state(sim, harness::StateReference::of_bytes(reference));
     EXPECT_FALSE(c.identical) << at;
     EXPECT_EQ(c.first_difference, at);
     EXPECT_EQ(c.size, bytes.size());
@@ -265,7 +267,8 @@ TEST(StateDigest, IsTheHashOfTheStateBytesAndComparesInPlace) {
                                    positions + forces + 3, bytes.size() + 8}) {
     std::string reference = bytes.substr(0, std::min(length, bytes.size()));
     reference.resize(length, '\0');
-    const harness::ReferenceComparison c = harness::compare_state(sim, reference);
+    const harness::ReferenceComparison c =
+        harness::compare_state(sim, harness::StateReference::of_bytes(reference));
     EXPECT_FALSE(c.identical) << length;
     EXPECT_EQ(c.first_difference, naive_first_difference(bytes, reference)) << length;
   }
@@ -316,6 +319,13 @@ TEST(SweepVerification, AReferenceKnownOnlyByItsDigestFindsADifferenceButNotWher
   EXPECT_FALSE(other.identical);
   EXPECT_TRUE(other.by_digest);
   EXPECT_EQ(other.reference_digest, wrong);
+  // A digest the caller has already computed is taken as the state's own, not computed again
+  // (shown by handing over a wrong one on purpose: it is believed).
+  const harness::StateReference digest_right = harness::StateReference::of_digest(right);
+  const harness::StateReference digest_wrong = harness::StateReference::of_digest(wrong);
+  EXPECT_TRUE(harness::compare_state(sim, digest_wrong, wrong).identical);
+  EXPECT_FALSE(harness::compare_state(sim, digest_right, wrong).identical);
+  EXPECT_TRUE(harness::compare_state(sim, digest_right, right).identical);
   // With the bytes the comparison is made byte by byte, whatever the digest says.
   EXPECT_FALSE(harness::compare_state(sim, harness::StateReference::of_bytes(flipped)).by_digest);
 
