@@ -174,6 +174,12 @@ std::string format_row_line(const json& row) {
     parts += fmt::format("  core round trip {:.0f}/{:.0f} ns{}", before, after,
                          round_trip_changed(before, after) ? " (CORE PLACEMENT CHANGED)" : "");
   }
+  if (row.contains("memory") && row["memory"].is_object() &&
+      row["memory"]["peak_resident_bytes"].is_number()) {
+    parts += fmt::format(
+        "  peak {:.1f} MiB{}", row["memory"]["peak_resident_bytes"].get<double>() / (1 << 20),
+        row["memory"]["scope"] == "run" ? "" : " (process)");
+  }
   return fmt::format(
       "  {:<28} {:3d} threads{}  time {:.4f} s [{:.4f}-{:.4f}]{}  {}{}\n",
       row["scheduler_canonical"].get<std::string>(), row["threads"].get<int>(),

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "harness/run/disturbance.hpp"
+#include "harness/run/resident_memory.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/run/verify.hpp"
 #include "kernels/loop_runner.hpp"
@@ -53,6 +54,9 @@ struct MeasuredRun {
   /// Whether other work on the machine disturbed the timed steps (disturbance.hpp).
   Disturbance disturbance;
   int attempts = 1;  ///< runs made for this repetition (1 + disturbed runs re-done)
+  /// Resident memory from the start of the run's set-up (a fresh simulation) to its last
+  /// step (resident_memory.hpp); filled by the caller that builds the simulation.
+  RunMemory memory;
 };
 
 /// Runs `steps` steps of `simulation` (fresh, thread count already set with

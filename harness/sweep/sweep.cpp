@@ -20,6 +20,7 @@
 #include "harness/report/sweep_table.hpp"
 #include "harness/run/core_round_trip.hpp"
 #include "harness/run/disturbance.hpp"
+#include "harness/run/resident_memory.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/sweep/measured_run.hpp"
@@ -49,8 +50,10 @@ MeasuredRun fresh_run(const Scene& scene, schedulers::LoopDriver& driver, int th
                       kernels::Instrumentation level, const StateReference* reference,
                       std::unique_ptr<kernels::Simulation>* keep = nullptr) {
   omp_set_num_threads(threads);
+  const RunMemoryProbe memory;  // the run's peak includes building its simulation
   auto simulation = std::make_unique<kernels::Simulation>(scene.simulation);
   MeasuredRun run = measure_run(*simulation, driver, steps, level, reference);
+  run.memory = memory.finish();
   if (keep != nullptr) *keep = std::move(simulation);
   return run;
 }

@@ -106,6 +106,42 @@ json identity_json(const AccountingIdentity& id) {
           {"note", id.note}};
 }
 
+namespace {
+
+json run_memory_json(const RunMemory& memory) {
+  return {{"start_resident_bytes", memory.start_bytes},
+          {"peak_resident_bytes", memory.peak_bytes},
+          {"scope", memory.scope}};
+}
+
+/// The row's peak is the highest of its runs whose memory is known; its scope is "run" when
+/// each of them had its own high-water mark (reset at its start), else "process".
+json row_memory_json(const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed) {
+  std::uint64_t peak = 0;
+  int runs = 0, measured = 0;
+  bool own = true;
+  json records = json::array();
+  for (const auto* list : {&plain, &timed}) {
+    for (const MeasuredRun& r : *list) {
+      ++runs;
+      json record = run_memory_json(r.memory);
+      record["instrumented"] = list == &timed;
+      records.push_back(std::move(record));
+      if (r.memory.scope == "unknown") continue;
+      ++measured;
+      own = own && r.memory.scope == "run";
+      peak = std::max(peak, r.memory.peak_bytes);
+    }
+  }
+  return {{"peak_resident_bytes", measured > 0 ? json(peak) : json(nullptr)},
+          {"scope", measured == 0 ? "unknown" : own ? "run" : "process"},
+          {"runs_measured", measured},
+          {"runs", runs},
+          {"records", std::move(records)}};
+}
+
+}  // namespace
+
 json make_row(const std::string& scheduler, const std::string& canonical, const std::string& note,
               int threads, bool oversubscribed, const std::vector<MeasuredRun>& plain,
               const std::vector<MeasuredRun>& timed, kernels::Instrumentation level, int steps,
@@ -149,6 +185,7 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
       iterations = r.cg_iterations;
     }
   }
+  json memory = row_memory_json(plain, timed);
   json instrumented = {{"level", to_string(level)},
                        {"time_seconds", nullptr},
                        {"cost_seconds", nullptr},
@@ -183,6 +220,7 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
                 {"state_digest", digest},
                 {"max_mass_error", max_mass_error}}},
               {"disturbance", std::move(disturbance)},
+              {"memory", std::move(memory)},
               {"cg_iterations", iterations},
               {"steps", steps},
               {"binding", std::move(binding)},
@@ -250,7 +288,8 @@ json measured_run_json(const MeasuredRun& run) {
           {"verification",
            {{"passed", run.verification.passed}, {"failures", run.verification.failures}}},
           {"accounting", accounting_json(run.accounting, 0)},
-          {"disturbance", std::move(disturbance)}};
+          {"disturbance", std::move(disturbance)},
+          {"memory", run_memory_json(run.memory)}};
 }
 
 MeasuredRun measured_run_from_json(const json& j) {
@@ -302,6 +341,18 @@ MeasuredRun measured_run_from_json(const json& j) {
   dist.oversubscribed = field<bool>(d, wd, "oversubscribed");
   dist.disturbed = field<bool>(d, wd, "disturbed");
   dist.reasons = field<std::vector<std::string>>(d, wd, "reasons");
+  if (j.contains("memory")) {  // absent in documents written before memory was measured
+    const json m = field<json>(j, w, "memory");
+    const std::string wm = w + ".memory";
+    run.memory.start_bytes = field<std::uint64_t>(m, wm, "start_resident_bytes");
+    run.memory.peak_bytes = field<std::uint64_t>(m, wm, "peak_resident_bytes");
+    run.memory.scope = field<std::string>(m, wm, "scope");
+    if (run.memory.scope != "run" && run.memory.scope != "process" &&
+        run.memory.scope != "unknown") {
+      throw std::invalid_argument(
+          fmt::format("{}.scope: \"{}\" is not run, process or unknown", wm, run.memory.scope));
+    }
+  }
   return run;
 }
 
@@ -427,6 +478,14 @@ void validate_row_into(const json& row, const std::string& w, std::vector<std::s
     expect(d, w + ".disturbance", "runs", is_integer, "integer", p);
     expect(d, w + ".disturbance", "reruns", is_integer, "integer", p);
     expect(d, w + ".disturbance", "records", is_array, "array", p);
+  }
+  if (row.is_object() && row.contains("memory")) {  // absent in older documents
+    const json& m = row["memory"];
+    expect(m, w + ".memory", "peak_resident_bytes", is_number_or_null, "number or null", p);
+    expect(m, w + ".memory", "scope", is_string, "string", p);
+    expect(m, w + ".memory", "runs_measured", is_integer, "integer", p);
+    expect(m, w + ".memory", "runs", is_integer, "integer", p);
+    expect(m, w + ".memory", "records", is_array, "array", p);
   }
   expect(row, w, "verification", is_object, "object", p);
   expect(row, w, "cg_iterations", is_integer, "integer", p);

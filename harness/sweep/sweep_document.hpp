@@ -21,7 +21,11 @@
 //
 //   RUN: instrumentation, cg_iterations, steps_done, mass_error, finite, bit_identical,
 //   state_digest, attempts, verification {passed, failures[]}, accounting (as ROW's, from_run
-//   0), disturbance (as a ROW's record, plus threads and usable_cores)
+//   0), disturbance (as a ROW's record, plus threads and usable_cores), memory
+//   {start_resident_bytes, peak_resident_bytes, scope "run" | "process" | "unknown"} (the
+//   process's resident set when the run's set-up began and its highest until the run's last
+//   step; "run": the high-water mark was reset at the start, so the peak is this run's;
+//   resident_memory.hpp; absent in older documents)
 //
 //   ROW: scheduler (as given), scheduler_canonical, note, threads, oversubscribed,
 //   time_seconds {median, min, max, samples[]}        -- uninstrumented runs
@@ -41,6 +45,10 @@
 //     cpu_seconds, wall_seconds, cpu_share, involuntary_switches, switch_rate_per_core_second,
 //     load_before, load_after, wait_policy, oversubscribed, instrumented, attempts}]}
 //     (absent in documents written before disturbance was measured)
+//   memory {peak_resident_bytes (the highest of its runs' peaks) | null, scope "run" |
+//     "process" | "unknown", runs_measured, runs, records [{start_resident_bytes,
+//     peak_resident_bytes, scope, instrumented}] (plain runs, then instrumented, as
+//     disturbance.records)} (absent in older documents)
 //   cg_iterations, steps, binding {mode, bound, threads [{thread, cpuset, last_pu}]}
 //   derived {speedup, efficiency, speedup_vs_best_1thread, efficiency_vs_best_1thread}
 //     (numbers, or null when this row or its 1-thread baseline failed or is missing)

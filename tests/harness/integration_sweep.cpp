@@ -58,6 +58,12 @@ TEST_F(SweepBinary, DocumentSchemaTableAndAccountingIdentity) {
     EXPECT_TRUE(row["verification"]["bit_identical"].get<bool>()) << where;
     EXPECT_EQ(row["verification"]["state_digest"], d["reference"]["state_digest"]) << where;
     EXPECT_EQ(row["binding"]["threads"].size(), row["threads"].get<std::size_t>()) << where;
+    // Each run's peak resident memory is its own (the high-water mark reset at its start,
+    // Linux 4.0+), and the row's is the highest of them: at least a simulation's worth.
+    EXPECT_EQ(row["memory"]["scope"], "run") << where;
+    EXPECT_EQ(row["memory"]["runs_measured"], row["verification"]["runs"]) << where;
+    EXPECT_EQ(row["memory"]["runs"], row["verification"]["runs"]) << where;
+    EXPECT_GT(row["memory"]["peak_resident_bytes"].get<double>(), 1 << 20) << where;
     // Rows of 2 threads record where the host had put the cores, before and after the row
     // (harness/run/core_round_trip.hpp: 0 only on a machine of 1 hardware thread).
     if (row["threads"] == 1) {

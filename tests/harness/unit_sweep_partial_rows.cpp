@@ -59,6 +59,9 @@ MeasuredRun made_up_run(double wall, bool instrumented, bool no_load_after) {
   r.disturbance.disturbed = no_load_after;
   if (no_load_after) r.disturbance.reasons = {"made-up reason"};
   r.attempts = no_load_after ? 3 : 1;
+  r.memory.start_bytes = 123456789012 + static_cast<std::uint64_t>(wall);
+  r.memory.peak_bytes = 987654321098 + static_cast<std::uint64_t>(wall);
+  r.memory.scope = no_load_after ? "process" : "run";
   return r;
 }
 
@@ -93,6 +96,66 @@ TEST(SweepPartialRows, ARunReadBackMakesTheSameRowAsTheRunItself) {
   EXPECT_EQ(timed_back[0].accounting.thread_work, timed[0].accounting.thread_work);
   EXPECT_EQ(plain_back[0].steps_done, 100);
   EXPECT_EQ(plain_back[0].disturbance.threads, 2);
+  EXPECT_EQ(plain_back[0].memory.start_bytes, plain[0].memory.start_bytes);
+  EXPECT_EQ(plain_back[0].memory.peak_bytes, plain[0].memory.peak_bytes);
+  EXPECT_EQ(plain_back[0].memory.scope, "run");
+  EXPECT_EQ(plain_back[1].memory.scope, "process");
+}
+
+TEST(SweepPartialRows, TheRowsPeakIsItsHighestRunsAndOnlyItsOwnWhenEveryRunsIs) {
+  std::vector<MeasuredRun> plain = {made_up_run(10.0, false, false),
+                                    made_up_run(30.0, false, false)};
+  std::vector<MeasuredRun> timed = {made_up_run(20.0, true, false)};
+  json row = row_of(plain, timed);
+  EXPECT_EQ(row["memory"]["peak_resident_bytes"], plain[1].memory.peak_bytes);
+  EXPECT_EQ(row["memory"]["scope"], "run");
+  EXPECT_EQ(row["memory"]["runs_measured"], 3);
+  EXPECT_EQ(row["memory"]["runs"], 3);
+  ASSERT_EQ(row["memory"]["records"].size(), 3u);
+  EXPECT_EQ(row["memory"]["records"][1]["start_resident_bytes"], plain[1].memory.start_bytes);
+  EXPECT_EQ(row["memory"]["records"][2]["instrumented"], true);
+
+  // One run whose high-water mark could not be reset: the row's peak may be an earlier run's.
+  timed[0].memory.scope = "process";
+  EXPECT_EQ(row_of(plain, timed)["memory"]["scope"], "process");
+  // A run of an older session (no memory recorded) is left out of the peak and counted.
+  timed[0].memory = {};
+  timed[0].memory.peak_bytes = 0;
+  row = row_of(plain, timed);
+  EXPECT_EQ(row["memory"]["peak_resident_bytes"], plain[1].memory.peak_bytes);
+  EXPECT_EQ(row["memory"]["scope"], "run");
+  EXPECT_EQ(row["memory"]["runs_measured"], 2);
+  EXPECT_EQ(row["memory"]["runs"], 3);
+  // No run measured: no peak.
+  for (MeasuredRun& r : plain) r.memory = {};
+  row = row_of(plain, {timed[0]});
+  EXPECT_TRUE(row["memory"]["peak_resident_bytes"].is_null());
+  EXPECT_EQ(row["memory"]["scope"], "unknown");
+}
+
+TEST(SweepPartialRows, ARunWithoutMemoryReadsAsUnknownAndABadScopeIsNamed) {
+  json run = clothbench::harness::measured_run_json(made_up_run(5.0, false, false));
+  json older = run;
+  older.erase("memory");  // written before memory was measured
+  const MeasuredRun back = clothbench::harness::measured_run_from_json(older);
+  EXPECT_EQ(back.memory.scope, "unknown");
+  EXPECT_EQ(back.memory.peak_bytes, 0u);
+  json bad = run;
+  bad["memory"]["scope"] = "machine";
+  try {
+    (void)clothbench::harness::measured_run_from_json(bad);
+    ADD_FAILURE() << "a run with memory scope \"machine\" was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("run.memory.scope: \"machine\" is not run, process or unknown"));
+  }
+  json missing = run;
+  missing["memory"].erase("peak_resident_bytes");
+  try {
+    (void)clothbench::harness::measured_run_from_json(missing);
+    ADD_FAILURE() << "a run without memory.peak_resident_bytes was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("run.memory: missing key 'peak_resident_bytes'"));
+  }
 }
 
 TEST(SweepPartialRows, EntriesAreKeptPerRowReplacedTakenAndDropped) {
@@ -186,6 +249,21 @@ TEST(SweepPartialRows, ValidatorNamesADamagedEntry) {
   EXPECT_THAT(problems[0], HasSubstr("partial_rows[0].core_round_trip_before_ns: expected number"));
   EXPECT_THAT(problems[1], HasSubstr("partial_rows[0].plain[0]: run: missing key 'state_digest'"));
   EXPECT_THAT(problems[2], HasSubstr("partial_rows[0].timed: expected array"));
+
+  // A row's memory block: checked when present (older rows have none).
+  document.erase("partial_rows");
+  document["rows"].push_back(
+      row_of({made_up_run(7.0, false, false)}, {made_up_run(8.0, true, false)}));
+  document["rows"].push_back(document["rows"][0]);
+  document["rows"][1].erase("memory");
+  document["rows"][1]["threads"] = 1;
+  EXPECT_TRUE(clothbench::harness::validate_sweep_document(document).empty());
+  document["rows"][0]["memory"]["peak_resident_bytes"] = "lots";
+  document["rows"][0]["memory"].erase("runs_measured");
+  const auto memory_problems = clothbench::harness::validate_sweep_document(document);
+  ASSERT_EQ(memory_problems.size(), 2u);
+  EXPECT_THAT(memory_problems[0], HasSubstr("rows[0].memory.peak_resident_bytes"));
+  EXPECT_THAT(memory_problems[1], HasSubstr("rows[0].memory: missing key 'runs_measured'"));
 }
 
 }  // namespace
