@@ -41,7 +41,7 @@ std::string millimetres(double metres) { return fmt::format("{:.3f}", 1e3 * metr
 std::string cell_line(const StressCellResult& r) {
   return fmt::format(
       "  {:<24} {:>11} steps  strain {:.4f}  penetration {}/{} mm  cost trend {}  "
-      "mass drift {:.1e}  {} {:.0f}/step (max {}{})  rejected {}  unconverged {}  {:.1f} s  {}\n",
+      "mass drift {:.1e}  {} {:.0f}/step (max {}{})  rejected {}  unconverged {}  {:.1f} s{}  {}\n",
       r.name, fmt::format("{}/{}", r.steps_completed, r.steps_planned), r.max_strain,
       millimetres(r.max_particle_penetration), millimetres(r.max_surface_penetration),
       r.cost_trend.ratio
@@ -57,6 +57,10 @@ std::string cell_line(const StressCellResult& r) {
                         static_cast<double>(r.linear_iterations) / std::max(1, r.steps_completed))
           : std::string(),
       r.rejected_steps, r.unconverged_steps, r.wall_seconds,
+      r.memory.scope == "unknown"
+          ? std::string()
+          : fmt::format("  peak {:.1f} MiB{}", static_cast<double>(r.memory.peak_bytes) / (1 << 20),
+                        r.memory.scope == "run" ? "" : " (process)"),
       r.passed ? "PASSED" : "FAILED");
 }
 

@@ -106,6 +106,7 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   r.contact_distance = config.contact.distance;
   r.steps_planned = cell.scene.steps;
 
+  const RunMemoryProbe memory;  // the cell's peak includes building its simulation
   kernels::Simulation simulation(config);
   std::vector<double> cost, work, energy;
   bool abandoned = false;
@@ -160,6 +161,7 @@ std::optional<StressCellResult> run_stress_cell(const StressCell& cell,
   }
   r.step_seconds = summary.wall_seconds;
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.memory = memory.finish();
   judge_stress_cell(r);
   return r;
 }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/run/resident_memory.hpp"
 #include "harness/run/verify.hpp"
 #include "harness/stress/stress_matrix.hpp"
 #include "harness/stress/stress_metrics.hpp"
@@ -53,6 +54,9 @@ struct StressCellResult {
   std::int64_t amrc_refined = 0, amrc_coarsened = 0;
   double step_seconds = 0.0;  ///< the kernel's step time (AMRC included)
   double wall_seconds = 0.0;  ///< the whole cell, per-step checks included
+  /// Resident memory from the cell's set-up to its last step: its own peak, as the cells run
+  /// one after another in one process (resident_memory.hpp).
+  RunMemory memory;
   bool passed = false;
   std::vector<std::string> failures;  ///< one line per failed criterion
   /// The diagnostic snapshot written when the state stopped being finite (JSON and VTK files;

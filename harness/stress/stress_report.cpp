@@ -106,6 +106,10 @@ json cell_json(const StressCellResult& r) {
       {"amrc",
        {{"checks", r.amrc_checks}, {"refined", r.amrc_refined}, {"coarsened", r.amrc_coarsened}}},
       {"seconds", {{"steps", number(r.step_seconds)}, {"wall", number(r.wall_seconds)}}},
+      {"memory",
+       {{"start_resident_bytes", r.memory.start_bytes},
+        {"peak_resident_bytes", r.memory.peak_bytes},
+        {"scope", r.memory.scope}}},
       {"passed", r.passed},
       {"failures", r.failures}};
 }
@@ -363,6 +367,13 @@ std::vector<std::string> validate_stress_document(const json& d) {
     inner("cost_trend", "last_quarter_above_bound", &json::is_boolean);
     inner("cg", "iterations", &json::is_number_integer);
     inner("seconds", "wall", &json::is_number, true);
+    // Absent in documents written before memory was measured.
+    if (c.is_object() && c.contains("memory") && !c["memory"].is_object()) {
+      problems.push_back(path + ".memory: wrong type (" + c["memory"].type_name() + ")");
+    }
+    inner("memory", "start_resident_bytes", &json::is_number_integer);
+    inner("memory", "peak_resident_bytes", &json::is_number_integer);
+    inner("memory", "scope", &json::is_string);
   }
   return problems;
 }

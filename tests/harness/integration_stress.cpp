@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -81,6 +82,15 @@ TEST_F(StressBinary, TwoQuickCellsPassAndEveryOutputHasItsStructure) {
   EXPECT_TRUE(small_step["cost_trend"]["quarter_means"].is_array());
   EXPECT_FALSE(small_step["cost_trend"]["grows_without_bound"].get<bool>());
   EXPECT_TRUE(small_step["failures"].empty());
+  // Each cell's peak resident memory is its own (the high-water mark reset before its set-up).
+  for (const json& cell : d["cells"]) {
+    EXPECT_EQ(cell["memory"]["scope"], "run") << cell["name"];
+    EXPECT_GE(cell["memory"]["peak_resident_bytes"].get<std::uint64_t>(),
+              cell["memory"]["start_resident_bytes"].get<std::uint64_t>())
+        << cell["name"];
+    EXPECT_GT(cell["memory"]["start_resident_bytes"].get<std::uint64_t>(), 0u) << cell["name"];
+  }
+  EXPECT_THAT(o.output, testing::ContainsRegex("\n  dt-1e-4 +30/30 steps .* s  peak [0-9.]+ MiB  PASSED\n"));
   EXPECT_GT(d["cells"][0]["max_strain"].get<double>(), small_step["max_strain"].get<double>())
       << "a 10x softer cloth stretches more";
   EXPECT_THAT(read_text(out / "stress.json"), testing::Not(HasSubstr("NaN")));

@@ -335,6 +335,18 @@ TEST(StressReport, NoNanReachesTheRecordsAndTheTablesShowEveryCell) {
   ASSERT_EQ(problems.size(), 2u);
   EXPECT_EQ(problems[0], "stress.cells[0].steps.completed: wrong type (string)");
   EXPECT_EQ(problems[1], "stress.cells[1].passed: missing");
+
+  // A cell's memory block is checked when present; documents from before it have none.
+  nlohmann::json older = d;
+  older["cells"][0].erase("memory");
+  EXPECT_TRUE(harness::validate_stress_document(older).empty());
+  nlohmann::json bad_memory = d;
+  bad_memory["cells"][1]["memory"]["peak_resident_bytes"] = "lots";
+  bad_memory["cells"][0]["memory"] = 5;
+  const auto memory_problems = harness::validate_stress_document(bad_memory);
+  ASSERT_EQ(memory_problems.size(), 2u);
+  EXPECT_EQ(memory_problems[0], "stress.cells[0].memory: wrong type (number)");
+  EXPECT_EQ(memory_problems[1], "stress.cells[1].memory.peak_resident_bytes: wrong type (string)");
 }
 
 }  // namespace
