@@ -15,6 +15,11 @@ namespace {
 
 using clothbench::harness::parse_proc_status_memory;
 
+/// Linux counts a thread's resident pages in batches before they reach the process's counters
+/// (and its high-water mark), so the mark can trail a resident set read a moment earlier by a
+/// few hundred kB: comparisons of the two allow this much.
+constexpr std::uint64_t kCounterSlack = 1u << 20;
+
 TEST(ResidentMemory, StatusLinesAreReadInBytes) {
   const auto m = parse_proc_status_memory(
       "Name:\tclothbench\nVmPeak:\t  900000 kB\nVmHWM:\t    2048 kB\nVmRSS:\t    1024 kB\n"
@@ -62,7 +67,7 @@ TEST(ResidentMemory, ThePeakCanBeResetToTheCurrentResidentSet) {
   // The block is gone; until the reset the peak still remembers it.
   const auto after = clothbench::harness::read_resident_memory();
   ASSERT_TRUE(after.has_value());
-  EXPECT_GE(after->peak_bytes, high);
+  EXPECT_GE(after->peak_bytes + kCounterSlack, high);
   EXPECT_LT(after->current_bytes + kBlock / 2, high);
   // Linux 4.0 and later (every machine clothbench supports) reset it to the resident set now.
   ASSERT_TRUE(clothbench::harness::reset_resident_peak());
@@ -87,7 +92,7 @@ TEST(ResidentMemory, ARunsPeakIsItsOwn) {
   }
   const clothbench::harness::RunMemory m = probe.finish();
   EXPECT_EQ(m.scope, "run");
-  EXPECT_GE(m.peak_bytes, during);
+  EXPECT_GE(m.peak_bytes + kCounterSlack, during);
   EXPECT_GE(m.peak_bytes, m.start_bytes + kBlock * 9 / 10);
   // Not the earlier block's peak: this run touched half as much on top of its start.
   EXPECT_LT(m.peak_bytes, m.start_bytes + 2 * kBlock - kBlock / 2);
