@@ -54,6 +54,9 @@ struct MeasuredRun {
   /// Whether other work on the machine disturbed the timed steps (disturbance.hpp).
   Disturbance disturbance;
   int attempts = 1;  ///< runs made for this repetition (1 + disturbed runs re-done)
+  /// The sweep's reference run, counted as the first uninstrumented run of its row
+  /// (reference_counts_in_row); marked in the row's run records.
+  bool reference = false;
   /// Resident memory from the start of the run's set-up (a fresh simulation) to its last
   /// step (resident_memory.hpp); filled by the caller that builds the simulation.
   RunMemory memory;

@@ -398,6 +398,7 @@ int run_sweep(const SweepOptions& options) {
       reference_counts_in_row(options, threads,
                               {resuming, reference_run->disturbance.disturbed,
                                reference_run->accounting.wall_seconds})) {
+    reference_run->reference = true;
     store_partial_row(document, {grid.front().canonical, 1}, {*reference_run}, {});
     document["reference"]["counted_in_row"] = true;
     if (!options.quiet) {

@@ -159,6 +159,7 @@ json make_row(const std::string& scheduler, const std::string& canonical, const 
       json record = disturbance_json(r.disturbance);
       record["instrumented"] = list == &timed;
       record["attempts"] = r.attempts;
+      record["reference"] = r.reference;
       runs.push_back(std::move(record));
       disturbed_runs += r.disturbance.disturbed ? 1 : 0;
       reruns += r.attempts - 1;
@@ -285,6 +286,7 @@ json measured_run_json(const MeasuredRun& run) {
           {"bit_identical", run.bit_identical},
           {"state_digest", run.state_digest},
           {"attempts", run.attempts},
+          {"reference", run.reference},
           {"verification",
            {{"passed", run.verification.passed}, {"failures", run.verification.failures}}},
           {"accounting", accounting_json(run.accounting, 0)},
@@ -303,6 +305,8 @@ MeasuredRun measured_run_from_json(const json& j) {
   run.bit_identical = field<bool>(j, w, "bit_identical");
   run.state_digest = field<std::string>(j, w, "state_digest");
   run.attempts = field<int>(j, w, "attempts");
+  // Absent in documents written before the reference run was marked.
+  if (j.contains("reference")) run.reference = field<bool>(j, w, "reference");
   const json v = field<json>(j, w, "verification");
   run.verification.passed = field<bool>(v, w + ".verification", "passed");
   run.verification.failures = field<std::vector<std::string>>(v, w + ".verification", "failures");
@@ -528,6 +532,57 @@ void validate_row_into(const json& row, const std::string& w, std::vector<std::s
   expect(b, w + ".binding", "threads", is_array, "array", p);
 }
 
+/// The run records marked `reference` agree with `reference.counted_in_row`: when counted,
+/// the first uninstrumented run of the reference's row (finished or partial) is the only
+/// marked run; otherwise no run is. Records written before runs were marked carry no field and
+/// are not checked (a sweep begun by an older build and resumed by a newer one).
+void validate_reference_marks(const json& d, std::vector<std::string>& p) {
+  const json& reference = d["reference"];
+  const bool counted = reference.value("counted_in_row", false);
+  const std::string scheduler = reference.value("scheduler", "");
+  const int reference_threads = reference.value("threads", 1);
+  auto marked = [](const json& record) {
+    return record.is_object() && record.value("reference", false);
+  };
+  auto check_list = [&](const json& records, bool is_reference_row, const std::string& where,
+                        auto instrumented_of) {
+    for (std::size_t r = 0; r < records.size(); ++r) {
+      const json& record = records[r];
+      const bool first_plain = is_reference_row && r == 0 && !instrumented_of(record);
+      if (marked(record) && !(counted && first_plain)) {
+        p.push_back(fmt::format("{}[{}].reference: marks a run that is not the counted reference "
+                                "run (reference.counted_in_row is {})",
+                                where, r, counted));
+      }
+      if (first_plain && counted && record.is_object() && record.contains("reference") &&
+          !marked(record)) {
+        p.push_back(fmt::format("{}[{}].reference: reference.counted_in_row is true but the "
+                                "row's first run is not marked as the reference run",
+                                where, r));
+      }
+    }
+  };
+  for (std::size_t i = 0; i < d["rows"].size(); ++i) {
+    const json& row = d["rows"][i];
+    if (!row.contains("disturbance")) continue;
+    const bool is_reference_row = row.value("scheduler_canonical", "") == scheduler &&
+                                  row.value("threads", 0) == reference_threads;
+    check_list(row["disturbance"]["records"], is_reference_row,
+               fmt::format("rows[{}].disturbance.records", i),
+               [](const json& record) { return record.value("instrumented", false); });
+  }
+  if (!d.contains("partial_rows") || !d["partial_rows"].is_array()) return;
+  for (std::size_t i = 0; i < d["partial_rows"].size(); ++i) {
+    const json& entry = d["partial_rows"][i];
+    const bool is_reference_row = entry.value("scheduler_canonical", "") == scheduler &&
+                                  entry.value("threads", 0) == reference_threads;
+    auto never = [](const json&) { return false; };
+    auto always = [](const json&) { return true; };
+    check_list(entry["plain"], is_reference_row, fmt::format("partial_rows[{}].plain", i), never);
+    check_list(entry["timed"], false, fmt::format("partial_rows[{}].timed", i), always);
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> validate_sweep_document(const json& d) {
@@ -594,6 +649,7 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   for (std::size_t i = 0; i < d["rows"].size(); ++i) {
     validate_row(d["rows"][i], fmt::format("rows[{}]", i), p);
   }
+  if (p.empty()) validate_reference_marks(d, p);
   p.insert(p.begin(), version.begin(), version.end());
   return p;
 }

@@ -20,7 +20,8 @@
 //     runs of rows an interrupted session did not finish, taken up by --resume; absent when none)
 //
 //   RUN: instrumentation, cg_iterations, steps_done, mass_error, finite, bit_identical,
-//   state_digest, attempts, verification {passed, failures[]}, accounting (as ROW's, from_run
+//   state_digest, attempts, reference (as a ROW record's; absent in older documents),
+//   verification {passed, failures[]}, accounting (as ROW's, from_run
 //   0), disturbance (as a ROW's record, plus threads and usable_cores), memory
 //   {start_resident_bytes, peak_resident_bytes, scope "run" | "process" | "unknown"} (the
 //   process's resident set when the run's set-up began and its highest until the run's last
@@ -43,7 +44,9 @@
 //   verification {passed, failures[], runs, bit_identical, state_digest, max_mass_error}
 //   disturbance {disturbed, disturbed_runs, runs, reruns, records [{disturbed, reasons[],
 //     cpu_seconds, wall_seconds, cpu_share, involuntary_switches, switch_rate_per_core_second,
-//     load_before, load_after, wait_policy, oversubscribed, instrumented, attempts}]}
+//     load_before, load_after, wait_policy, oversubscribed, instrumented, attempts,
+//     reference (true only for the sweep's reference run when counted_in_row: the first
+//     record of that row; absent in older documents)}]}
 //     (absent in documents written before disturbance was measured)
 //   memory {peak_resident_bytes (the highest of its runs' peaks) | null, scope "run" |
 //     "process" | "unknown", runs_measured, runs, records [{start_resident_bytes,

@@ -311,24 +311,28 @@ TEST_F(SweepBinary, WithoutAWarmUpTheReferenceRunIsItsRowsFirstRun) {
   // own first run, which the sweep may re-run when disturbed. Which of the two happens depends
   // on the machine's load; the decision itself is tested on every condition without a clock
   // (SweepOptions.TheReferenceRunCountsInItsRowOnlyWhenMeasuredAsTheRowsRunsAre). Here either
-  // outcome must show in the row: the reference's own clock reading as its one sample, or a
-  // sample of its own run.
+  // outcome must show in the row: its one uninstrumented run is the reference run (marked so
+  // in its run record, with the reference's clock reading as its sample) or a run of its own
+  // (not marked); no other run of the sweep is marked.
   const bool counted = reference["counted_in_row"].get<bool>();
   EXPECT_EQ(counted, !reference["disturbed"].get<bool>());
   ASSERT_EQ(d["rows"].size(), 4u);
-  int reference_rows = 0;
+  int reference_rows = 0, marked_runs = 0;
   for (const json& row : d["rows"]) {
     EXPECT_EQ(row["verification"]["runs"], 2) << row["scheduler_canonical"];
+    for (const json& record : row["disturbance"]["records"]) {
+      marked_runs += record["reference"].get<bool>() ? 1 : 0;
+    }
     if (row["scheduler_canonical"] != reference["scheduler"] || row["threads"] != 1) continue;
     ++reference_rows;
     ASSERT_EQ(row["time_seconds"]["samples"].size(), 1u);
-    if (counted) {
-      EXPECT_EQ(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
-    } else {
-      EXPECT_NE(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
-    }
+    const json& first = row["disturbance"]["records"][0];
+    EXPECT_FALSE(first["instrumented"].get<bool>());
+    EXPECT_EQ(first["reference"].get<bool>(), counted);
+    if (counted) EXPECT_EQ(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
   }
   EXPECT_EQ(reference_rows, 1);
+  EXPECT_EQ(marked_runs, counted ? 1 : 0);
   fs::remove_all(out);
 
   // With a warm-up the row's runs follow its warm-up run, which the reference did not have

@@ -75,8 +75,9 @@ json row_of(const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun
 json through_text(const json& j) { return json::parse(j.dump(2)); }
 
 TEST(SweepPartialRows, ARunReadBackMakesTheSameRowAsTheRunItself) {
-  const std::vector<MeasuredRun> plain = {made_up_run(2954.123456789012, false, false),
-                                          made_up_run(3190.4 / 3.0, false, true)};
+  std::vector<MeasuredRun> plain = {made_up_run(2954.123456789012, false, false),
+                                    made_up_run(3190.4 / 3.0, false, true)};
+  plain[0].reference = true;  // the sweep's reference run, counted in its row
   const std::vector<MeasuredRun> timed = {made_up_run(3001.0 / 7.0, true, false),
                                           made_up_run(2999.9999999999995, true, true)};
   std::vector<MeasuredRun> plain_back, timed_back;
@@ -100,6 +101,14 @@ TEST(SweepPartialRows, ARunReadBackMakesTheSameRowAsTheRunItself) {
   EXPECT_EQ(plain_back[0].memory.peak_bytes, plain[0].memory.peak_bytes);
   EXPECT_EQ(plain_back[0].memory.scope, "run");
   EXPECT_EQ(plain_back[1].memory.scope, "process");
+  EXPECT_TRUE(plain_back[0].reference);
+  EXPECT_FALSE(plain_back[1].reference);
+  EXPECT_EQ(row_of(plain, timed)["disturbance"]["records"][0]["reference"], true);
+  EXPECT_EQ(row_of(plain, timed)["disturbance"]["records"][1]["reference"], false);
+  // A run written before runs were marked reads as not the reference.
+  json unmarked = clothbench::harness::measured_run_json(plain[0]);
+  unmarked.erase("reference");
+  EXPECT_FALSE(clothbench::harness::measured_run_from_json(unmarked).reference);
 }
 
 TEST(SweepPartialRows, TheRowsPeakIsItsHighestRunsAndOnlyItsOwnWhenEveryRunsIs) {
@@ -218,6 +227,85 @@ TEST(SweepPartialRows, AMissingOrMistypedFieldIsNamed) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("run.disturbance.cpu_share: wrong type"));
   }
+}
+
+json made_up_document() {
+  return {{"schema", "clothbench.sweep"},
+          {"schema_version", clothbench::harness::kSweepSchemaVersion},
+          {"created_utc", "2026-11-30T07:00:00Z"},
+          {"updated_utc", "2026-11-30T07:00:00Z"},
+          {"complete", false},
+          {"command", json::array()},
+          {"settings",
+           {{"schedulers", {"static"}}, {"threads", {1}}, {"repeat", 1}, {"steps", 100}, {"instrument", "loops"}}},
+          {"scene", {{"name", "made-up"}, {"file", "m.toml"}, {"hash", "abc"}, {"source", ""}}},
+          {"machine", json::object()},
+          {"openmp_environment", json::object()},
+          {"reference", {{"state_digest", "00"}, {"scheduler", "static@blocks"}, {"threads", 1}}},
+          {"rows", json::array()}};
+}
+
+TEST(SweepPartialRows, OnlyTheCountedReferenceRunIsMarkedAndItMustBe) {
+  using clothbench::harness::validate_sweep_document;
+  MeasuredRun reference_run = made_up_run(7.0, false, false);
+  reference_run.reference = true;
+  const MeasuredRun other = made_up_run(8.0, false, false);
+  const MeasuredRun timed = made_up_run(9.0, true, false);
+  auto reference_row = [&](int threads, const MeasuredRun& first) {
+    json row = row_of({first, other}, {timed});
+    row["threads"] = threads;
+    return row;
+  };
+
+  // Counted: the reference row's first run is marked, as a finished row and as a partial one.
+  json counted = made_up_document();
+  counted["reference"]["counted_in_row"] = true;
+  counted["rows"].push_back(reference_row(1, reference_run));
+  EXPECT_TRUE(validate_sweep_document(counted).empty());
+  json counted_partial = made_up_document();
+  counted_partial["reference"]["counted_in_row"] = true;
+  clothbench::harness::store_partial_row(counted_partial, {"static@blocks", 1}, {reference_run}, {});
+  EXPECT_TRUE(validate_sweep_document(counted_partial).empty());
+
+  // Counted but not marked.
+  json unmarked = made_up_document();
+  unmarked["reference"]["counted_in_row"] = true;
+  unmarked["rows"].push_back(reference_row(1, other));
+  auto problems = validate_sweep_document(unmarked);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_THAT(problems[0], HasSubstr("rows[0].disturbance.records[0].reference: reference.counted_in_row "
+                                     "is true but the row's first run is not marked"));
+
+  // Marked but not counted; marked in another row; an instrumented run marked.
+  json not_counted = made_up_document();
+  not_counted["reference"]["counted_in_row"] = false;
+  not_counted["rows"].push_back(reference_row(1, reference_run));
+  problems = validate_sweep_document(not_counted);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_THAT(problems[0], HasSubstr("rows[0].disturbance.records[0].reference: marks a run that is "
+                                     "not the counted reference run (reference.counted_in_row is false)"));
+  json elsewhere = counted;
+  elsewhere["rows"].push_back(reference_row(2, reference_run));
+  problems = validate_sweep_document(elsewhere);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_THAT(problems[0], HasSubstr("rows[1].disturbance.records[0].reference: marks a run"));
+  json marked_timed = made_up_document();
+  marked_timed["reference"]["counted_in_row"] = true;
+  MeasuredRun timed_marked = timed;
+  timed_marked.reference = true;
+  clothbench::harness::store_partial_row(marked_timed, {"static@blocks", 1}, {reference_run},
+                                         {timed_marked});
+  problems = validate_sweep_document(marked_timed);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_THAT(problems[0], HasSubstr("partial_rows[0].timed[0].reference: marks a run"));
+
+  // A row written before runs were marked (no field) is not checked: a sweep begun by an
+  // older build and finished by this one.
+  json older = made_up_document();
+  older["reference"]["counted_in_row"] = true;
+  older["rows"].push_back(reference_row(1, other));
+  for (json& record : older["rows"][0]["disturbance"]["records"]) record.erase("reference");
+  EXPECT_TRUE(validate_sweep_document(older).empty());
 }
 
 TEST(SweepPartialRows, ValidatorNamesADamagedEntry) {
