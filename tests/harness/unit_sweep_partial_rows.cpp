@@ -65,6 +65,16 @@ MeasuredRun made_up_run(double wall, bool instrumented, bool no_load_after) {
   return r;
 }
 
+/// Reading `run` throws std::invalid_argument whose message contains `expected`.
+void expect_read_error(const json& run, const std::string& expected) {
+  try {
+    (void)clothbench::harness::measured_run_from_json(run);
+    ADD_FAILURE() << "a damaged run was read; expected: " << expected;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr(expected));
+  }
+}
+
 json row_of(const std::vector<MeasuredRun>& plain, const std::vector<MeasuredRun>& timed) {
   return clothbench::harness::make_row("static", "static@blocks", "", 2, false, plain, timed,
                                        clothbench::kernels::Instrumentation::loops, 100,
@@ -151,20 +161,10 @@ TEST(SweepPartialRows, ARunWithoutMemoryReadsAsUnknownAndABadScopeIsNamed) {
   EXPECT_EQ(back.memory.peak_bytes, 0u);
   json bad = run;
   bad["memory"]["scope"] = "machine";
-  try {
-    (void)clothbench::harness::measured_run_from_json(bad);
-    ADD_FAILURE() << "a run with memory scope \"machine\" was read";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("run.memory.scope: \"machine\" is not run, process or unknown"));
-  }
+  expect_read_error(bad, "run.memory.scope: \"machine\" is not run, process or unknown");
   json missing = run;
   missing["memory"].erase("peak_resident_bytes");
-  try {
-    (void)clothbench::harness::measured_run_from_json(missing);
-    ADD_FAILURE() << "a run without memory.peak_resident_bytes was read";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("run.memory: missing key 'peak_resident_bytes'"));
-  }
+  expect_read_error(missing, "run.memory: missing key 'peak_resident_bytes'");
 }
 
 TEST(SweepPartialRows, EntriesAreKeptPerRowReplacedTakenAndDropped) {
@@ -213,20 +213,10 @@ TEST(SweepPartialRows, AMissingOrMistypedFieldIsNamed) {
   json run = clothbench::harness::measured_run_json(made_up_run(5.0, false, false));
   json missing = run;
   missing["accounting"].erase("loops");
-  try {
-    (void)clothbench::harness::measured_run_from_json(missing);
-    ADD_FAILURE() << "a run without accounting.loops was read";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("run.accounting: missing key 'loops'"));
-  }
+  expect_read_error(missing, "run.accounting: missing key 'loops'");
   json mistyped = run;
   mistyped["disturbance"]["cpu_share"] = "high";
-  try {
-    (void)clothbench::harness::measured_run_from_json(mistyped);
-    ADD_FAILURE() << "a run with a string cpu_share was read";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("run.disturbance.cpu_share: wrong type"));
-  }
+  expect_read_error(mistyped, "run.disturbance.cpu_share: wrong type");
 }
 
 json made_up_document() {
@@ -309,23 +299,7 @@ TEST(SweepPartialRows, OnlyTheCountedReferenceRunIsMarkedAndItMustBe) {
 }
 
 TEST(SweepPartialRows, ValidatorNamesADamagedEntry) {
-  json document = {{"schema", "clothbench.sweep"},
-                   {"schema_version", clothbench::harness::kSweepSchemaVersion},
-                   {"created_utc", "2026-11-30T07:00:00Z"},
-                   {"updated_utc", "2026-11-30T07:00:00Z"},
-                   {"complete", false},
-                   {"command", json::array()},
-                   {"settings",
-                    {{"schedulers", {"static"}},
-                     {"threads", {1}},
-                     {"repeat", 1},
-                     {"steps", 100},
-                     {"instrument", "loops"}}},
-                   {"scene", {{"name", "made-up"}, {"file", "m.toml"}, {"hash", "abc"}, {"source", ""}}},
-                   {"machine", json::object()},
-                   {"openmp_environment", json::object()},
-                   {"reference", {{"state_digest", "00"}}},
-                   {"rows", json::array()}};
+  json document = made_up_document();
   clothbench::harness::store_partial_row(document, {"static@blocks", 1},
                                          {made_up_run(7.0, false, false)}, {});
   EXPECT_TRUE(clothbench::harness::validate_sweep_document(document).empty());
