@@ -329,7 +329,9 @@ TEST_F(SweepBinary, WithoutAWarmUpTheReferenceRunIsItsRowsFirstRun) {
     const json& first = row["disturbance"]["records"][0];
     EXPECT_FALSE(first["instrumented"].get<bool>());
     EXPECT_EQ(first["reference"].get<bool>(), counted);
-    if (counted) EXPECT_EQ(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
+    if (counted) {
+      EXPECT_EQ(row["time_seconds"]["samples"][0], reference["wall_seconds"]);
+    }
   }
   EXPECT_EQ(reference_rows, 1);
   EXPECT_EQ(marked_runs, counted ? 1 : 0);
