@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "harness/machine/git_revision.hpp"
 #include "harness/machine/machine_context.hpp"
 #include "tests/harness/clothbench_process.hpp"
 
@@ -185,6 +186,13 @@ TEST_F(MicroBenchmarks, EveryBenchmarkRunsOnceAtASmokeSizeWithFiniteCounters) {
   const json d = json::parse(o.output);  // throws (and fails the test) unless it is JSON
   EXPECT_GT(d["context"]["num_cpus"].get<int>(), 0);
   EXPECT_THAT(d["context"].value("clothbench_micro_smoke", ""), HasSubstr("not measurements"));
+  // The revision and the machine context every clothbench result stores travel with the figures.
+  EXPECT_EQ(d["context"].value("clothbench_revision", ""), clothbench::harness::git_revision());
+  const json machine = json::parse(d["context"].value("clothbench_machine", "null"));
+  ASSERT_TRUE(machine.is_object()) << d["context"].dump();
+  EXPECT_EQ(machine["build"]["git_revision"], clothbench::harness::git_revision());
+  EXPECT_FALSE(machine["cpu"]["model"].get<std::string>().empty());
+  EXPECT_GT(machine["cpu"]["cores"].get<int>(), 0);
   std::set<std::string> ran;
   for (const json& b : d["benchmarks"]) {
     const std::string name = b["name"];
