@@ -40,9 +40,9 @@ std::string millimetres(double metres) { return fmt::format("{:.3f}", 1e3 * metr
 
 std::string cell_line(const StressCellResult& r) {
   return fmt::format(
-      "  {:<24} {:>11} steps  strain {:.4f}  penetration {}/{} mm  cost trend {}  "
+      "  {:<24} {:>11} steps  strain {:.4f}..{:.4f}  penetration {}/{} mm  cost trend {}  "
       "mass drift {:.1e}  {} {:.0f}/step (max {}{})  rejected {}  unconverged {}  {:.1f} s{}  {}\n",
-      r.name, fmt::format("{}/{}", r.steps_completed, r.steps_planned), r.max_strain,
+      r.name, fmt::format("{}/{}", r.steps_completed, r.steps_planned), r.min_strain, r.max_strain,
       millimetres(r.max_particle_penetration), millimetres(r.max_surface_penetration),
       r.cost_trend.ratio
           ? fmt::format("{:.3g}{}{}", *r.cost_trend.ratio, r.cost_trend.growing ? " (grows)" : "",

@@ -152,7 +152,8 @@ std::string stress_markdown(const json& document) {
         "steps.\n\n",
         kQuickParticles, kQuickParticles);
   }
-  out << "| cell | change | particles | steps | first non-finite | max strain | max penetration "
+  out << "| cell | change | particles | steps | first non-finite | strain min / max | max "
+         "penetration "
          "particles / surface (mm) | cost trend | mass drift | solver iterations per step (mean / "
          "max) | rejected / unconverged steps | time (s) | result |\n";
   out << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -161,12 +162,13 @@ std::string stress_markdown(const json& document) {
     const json& pen = c["max_penetration_m"];
     const bool passed = c["passed"].get<bool>();
     out << fmt::format(
-        "| {} | {} | {} x {} | {} / {} | {} | {} | {} / {} | {} | {} | {} / {} | {} / {} | {} | {} "
+        "| {} | {} | {} x {} | {} / {} | {} | {} / {} | {} / {} | {} | {} | {} / {} | {} / {} | {} "
+        "| {} "
         "|\n",
         c["name"].get<std::string>(), c["change"].get<std::string>(), c["particles"][0].get<int>(),
         c["particles"][1].get<int>(), c["steps"]["completed"].get<int>(),
         c["steps"]["planned"].get<int>(), non_finite_text(c["non_finite"]),
-        shown(c["max_strain"], "{:.4f}"),
+        shown(c["min_strain"], "{:.4f}"), shown(c["max_strain"], "{:.4f}"),
         pen["particles"].is_number() ? fmt::format("{:.3f}", 1e3 * pen["particles"].get<double>())
                                      : "-",
         pen["surface"].is_number() ? fmt::format("{:.3f}", 1e3 * pen["surface"].get<double>())
