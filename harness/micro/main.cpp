@@ -4,7 +4,6 @@
 #include <benchmark/benchmark.h>
 
 #include "harness/machine/allocator.hpp"
-#include "harness/machine/git_revision.hpp"
 #include "harness/machine/machine_context.hpp"
 #include "harness/micro/smoke.hpp"
 #include "harness/run/disturbance.hpp"
@@ -20,9 +19,8 @@ int main(int argc, char** argv) {
   // The scheduling costs depend on it (threads that sleep at a barrier take tens of us to wake):
   // the predictor's overhead model records it (harness/predict/overhead_model.hpp).
   benchmark::AddCustomContext("omp_wait_policy", clothbench::harness::omp_wait_policy());
-  // What the figures were measured with: the code revision and the machine context every
-  // clothbench result stores (CPU model, caches, compiler, build, OpenMP runtime), as JSON.
-  benchmark::AddCustomContext("clothbench_revision", clothbench::harness::git_revision());
+  // What the figures were measured with: the machine context every clothbench result stores
+  // (CPU model, caches, compiler, build flags and code revision, OpenMP runtime), as JSON.
   benchmark::AddCustomContext("clothbench_machine", clothbench::harness::machine_context().dump());
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
