@@ -10,35 +10,6 @@
 
 namespace clothbench::kernels {
 
-namespace {
-
-/// Lower band of a symmetric positive definite band matrix (half-bandwidth w, row-major rows
-/// of w + 1 entries, entry (r, c) for r - w <= c <= r at r * (w + 1) + c - r + w) overwritten
-/// by its Cholesky factor L, with 1 / L(r, r) stored in place of each pivot L(r, r): the
-/// solves then multiply where they would divide, which shortens the chain from row to row.
-/// False on a non-positive pivot.
-CLOTHBENCH_SCALAR_LOOPS bool band_cholesky(double* band, std::int64_t n, int w) {
-  const std::int64_t row = w + 1;
-  for (std::int64_t r = 0; r < n; ++r) {
-    const std::int64_t first = std::max<std::int64_t>(0, r - w);
-    for (std::int64_t c = first; c <= r; ++c) {
-      double sum = band[r * row + c - r + w];
-      const std::int64_t from = std::max(first, c - w);
-      for (std::int64_t k = from; k < c; ++k)
-        sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
-      if (c == r) {
-        if (!(sum > 0.0) || !std::isfinite(sum)) return false;
-        band[r * row + w] = 1.0 / std::sqrt(sum);
-      } else {
-        band[r * row + c - r + w] = sum * band[c * row + w];
-      }
-    }
-  }
-  return true;
-}
-
-}  // namespace
-
 void VcyclePreconditioner::order_lines(Level& level, int d) {
   Lines& l = level.lines[d];
   const std::int64_t n = static_cast<std::int64_t>(level.i.size());
@@ -163,7 +134,7 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
       }
     }
   }
-  l.ok[line] = band_cholesky(band, rows, w) ? 1 : 0;
+  l.ok[line] = band::cholesky(band, rows, w) ? 1 : 0;
 }
 
 }  // namespace clothbench::kernels

@@ -48,17 +48,19 @@ LoopBytes transfer(const Weights& w, std::size_t sources, std::size_t rows, bool
           .written = bytes::kVector3};
 }
 
-/// Per line of direction d, a smoothing sweep: the operator's rows of its nodes, its order,
-/// b and x, the line factor and per-line ranges read; the line's scratch and x written.
+/// Per `per` lines of direction d (a loop index of the smoothing sweep), a smoothing sweep: the
+/// operator's rows of their nodes, their order, b and x, the line factors and per-line ranges
+/// read; the lines' scratch and x written.
 template <class Level>
-LoopBytes line_sweep(const Level& level, int d) {
+LoopBytes line_sweep(const Level& level, int d, int per) {
   const auto& l = level.lines[d];
   const auto nodes = static_cast<double>(l.order.size());
   const double read = operator_read(level.a) + nodes * (kOffset + 2 * bytes::kVector3) +
                       bytes::kDouble * static_cast<double>(l.band.size()) +
                       (3 * kOffset + bytes::kFlag) * static_cast<double>(l.width.size());
   const std::size_t lines = l.width.size();
-  return {.read = per_index(read, lines), .written = per_index(2 * bytes::kVector3 * nodes, lines)};
+  return {.read = per * per_index(read, lines),
+          .written = per * per_index(2 * bytes::kVector3 * nodes, lines)};
 }
 
 /// Per line of direction d, its factorisation: the operator's rows of its nodes with each

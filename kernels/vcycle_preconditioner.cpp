@@ -15,26 +15,6 @@ namespace clothbench::kernels {
 
 namespace {
 
-/// Solves L L^T x = b in place with the factor of band_cholesky (reciprocal pivots).
-CLOTHBENCH_SCALAR_LOOPS void band_solve(const double* band, std::int64_t n, int w, double* x) {
-  const std::int64_t row = w + 1;
-  for (std::int64_t r = 0; r < n; ++r) {
-    double sum = x[r];
-    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k)
-      sum -= band[r * row + k - r + w] * x[k];
-    x[r] = sum * band[r * row + w];
-  }
-  // L^T x = y by columns of L^T, i.e. along the rows of L as they are stored: once x[r] is
-  // known, it leaves the rows above it (the factor is read in the order the forward pass read
-  // it, not across rows).
-  for (std::int64_t r = n - 1; r >= 0; --r) {
-    const double xr = x[r] * band[r * row + w];
-    x[r] = xr;
-    const double* lr = band + r * row + w - r;  // lr[k] = L(r, k)
-    for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k) x[k] -= lr[k] * xr;
-  }
-}
-
 /// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
 CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start,
                                                    const std::int64_t* col, const double* value,
@@ -55,33 +35,62 @@ CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start,
 
 }  // namespace
 
-CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::update_line(Level& level, int d,
-                                                               std::int64_t line) {
-  Lines& l = level.lines[d];
-  if (l.ok[line] == 0) return;
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_residual(Level& level, int d,
+                                                                 std::int64_t line) {
+  const Lines& l = level.lines[d];
   const std::int64_t first = l.start[line];
-  const std::int64_t rows = 3 * (l.start[line + 1] - first);
+  const std::int64_t last = l.start[line + 1];
   double* rhs = level.scratch.data() + 3 * first;
   const BlockRows& a = level.a;
-  const std::int64_t last = l.start[line + 1];
   for (std::int64_t e = first; e < last; ++e) {
     if (e + kPrefetchAhead < last) prefetch_row(a, l.order[e + kPrefetchAhead]);
     block_residual(a.start.data(), a.col.data(), a.value.data(), l.order[e], level.x.data(),
                    level.b.data(), rhs + 3 * (e - first));
   }
-  band_solve(l.band.data() + l.band_start[line], rows, l.width[line], rhs);
+}
+
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_correct(Level& level, int d, std::int64_t line) {
+  const Lines& l = level.lines[d];
+  const std::int64_t first = l.start[line];
+  const double* rhs = level.scratch.data() + 3 * first;
   for (std::int64_t e = first; e < l.start[line + 1]; ++e) {
     const std::int64_t node = l.order[e];
     for (int c = 0; c < 3; ++c) level.x[3 * node + c] += rhs[3 * (e - first) + c];
   }
 }
 
+void VcyclePreconditioner::update_lines(Level& level, int d, std::int64_t line_a,
+                                        std::int64_t line_b) {
+  Lines& l = level.lines[d];
+  const bool a = l.ok[line_a] != 0;
+  const bool b = line_b >= 0 && l.ok[line_b] != 0;
+  auto rows = [&](std::int64_t line) { return 3 * (l.start[line + 1] - l.start[line]); };
+  auto band = [&](std::int64_t line) { return l.band.data() + l.band_start[line]; };
+  auto rhs = [&](std::int64_t line) { return level.scratch.data() + 3 * l.start[line]; };
+  if (a) line_residual(level, d, line_a);
+  if (b) line_residual(level, d, line_b);
+  if (a && b) {
+    band::solve_pair(band(line_a), rows(line_a), l.width[line_a], rhs(line_a), band(line_b),
+                     rows(line_b), l.width[line_b], rhs(line_b));
+  } else if (a || b) {
+    const std::int64_t line = a ? line_a : line_b;
+    band::solve(band(line), rows(line), l.width[line], rhs(line));
+  }
+  if (a) line_correct(level, d, line_a);
+  if (b) line_correct(level, d, line_b);
+}
+
 void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
   auto sweep = [&](int d, int colour) {
     const Lines& l = level.lines[d];
+    // A colour's lines are independent (none reads another's nodes): they go two at a time,
+    // the k-th pair being the colour's lines 2k and 2k + 1 whatever the schedule.
     const std::int64_t b = l.colour_start[colour];
-    run.for_index(l.colour_start[colour + 1] - b, vcycle_bytes::line_sweep(level, d),
-                  [&](std::int64_t k) { update_line(level, d, l.by_colour[b + k]); });
+    const std::int64_t count = l.colour_start[colour + 1] - b;
+    run.for_index((count + 1) / 2, vcycle_bytes::line_sweep(level, d, 2), [&](std::int64_t k) {
+      update_lines(level, d, l.by_colour[b + 2 * k],
+                   2 * k + 1 < count ? l.by_colour[b + 2 * k + 1] : -1);
+    });
   };
   if (forward) {
     for (int d = 0; d < 2; ++d) {

@@ -38,20 +38,12 @@
 #include <cstdint>
 #include <vector>
 
+#include "kernels/band_lines.hpp"
 #include "kernels/loop_runner.hpp"
 #include "kernels/model_hessian.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/topology_key.hpp"
 
-/// Marks the line kernels (band Cholesky, band solves, line residuals): short loops whose
-/// sums run in series. GCC's -O3 vectoriser packs them into shuffles that are slower than
-/// the scalar loops (perf on paper/box-257, 40 steps, 1 thread: factor_line 1.7x faster
-/// without it); the arithmetic and its order, hence the bits, are the same either way.
-#if defined(__GNUC__) && !defined(__clang__)
-#define CLOTHBENCH_SCALAR_LOOPS __attribute__((optimize("no-tree-vectorize")))
-#else
-#define CLOTHBENCH_SCALAR_LOOPS
-#endif
 
 namespace clothbench::kernels {
 
@@ -207,7 +199,7 @@ class VcyclePreconditioner {
     std::vector<std::int64_t> order;
   };
 
-  /// Nodes ahead on a line whose rows the line kernels (update_line, factor_line) prefetch: a
+  /// Nodes ahead on a line whose rows the line kernels (line_residual, factor_line) prefetch: a
   /// row's blocks (up to 9 of 72 B at level 0, up to 25 on coarse levels) lie far from the
   /// last node's along a line of the second direction, and one node's work is too long for
   /// the out-of-order window to reach the next node's loads (kernels/MODEL-NOTES.md, "V-cycle",
@@ -250,8 +242,16 @@ class VcyclePreconditioner {
   void couple_line(Level& level, int d, std::int64_t line);
   /// One thread: greedy colours in line order, the band factor's offsets and storage.
   void colour_lines(Level& level, int d);
+  /// A line's band from the operator's blocks between its nodes, factored (band::cholesky);
+  /// its `ok` says whether it factored.
   void factor_line(Level& level, int d, std::int64_t line);
-  void update_line(Level& level, int d, std::int64_t line);
+  /// The residual of a line's rows (the scratch's part of the line) at the current x.
+  void line_residual(Level& level, int d, std::int64_t line);
+  /// x += the line's solved correction (the scratch's part of the line).
+  void line_correct(Level& level, int d, std::int64_t line);
+  /// One block Gauss-Seidel update of two lines of one colour (line_b < 0: line_a alone),
+  /// their band solves interleaved; a line whose factorisation failed is left as it is.
+  void update_lines(Level& level, int d, std::int64_t line_a, std::int64_t line_b);
   void smooth(LoopRunner& run, Level& level, bool forward);
   void cycle(LoopRunner& run, std::size_t k);
 
