@@ -44,7 +44,6 @@
 #include "kernels/step_context.hpp"
 #include "kernels/topology_key.hpp"
 
-
 namespace clothbench::kernels {
 
 class VcyclePreconditioner {
