@@ -84,9 +84,15 @@ void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
   auto sweep = [&](int d, int colour) {
     const Lines& l = level.lines[d];
     // A colour's lines are independent (none reads another's nodes): they go two at a time,
-    // the k-th pair being the colour's lines 2k and 2k + 1 whatever the schedule.
+    // the k-th pair being the colour's lines 2k and 2k + 1 whatever the schedule (or one at a
+    // time: the same bits).
     const std::int64_t b = l.colour_start[colour];
     const std::int64_t count = l.colour_start[colour + 1] - b;
+    if (lines_per_task_ == 1) {
+      run.for_index(count, vcycle_bytes::line_sweep(level, d, 1),
+                    [&](std::int64_t k) { update_lines(level, d, l.by_colour[b + k], -1); });
+      return;
+    }
     run.for_index((count + 1) / 2, vcycle_bytes::line_sweep(level, d, 2), [&](std::int64_t k) {
       update_lines(level, d, l.by_colour[b + 2 * k],
                    2 * k + 1 < count ? l.by_colour[b + 2 * k + 1] : -1);

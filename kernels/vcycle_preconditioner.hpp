@@ -36,6 +36,8 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "kernels/band_lines.hpp"
@@ -58,6 +60,20 @@ class VcyclePreconditioner {
   /// The size below which a level is solved directly (tests use small values to get several
   /// levels on small meshes); takes effect at the next factor().
   void set_coarsest_nodes(std::int64_t nodes) { coarsest_nodes_ = nodes; }
+
+  /// Lines of one colour a smoothing task takes: 2 (the default: their band solves
+  /// interleaved, kernels/band_lines.hpp) or 1. The bits are the same either way; the sweeps
+  /// hand the scheduler twice as many, half as long tasks with 1 (clothbench-micro's
+  /// `newton_operator/vcycle_apply_one_line` measures the two in one run). Throws
+  /// std::invalid_argument for any other value.
+  void set_lines_per_task(int lines) {
+    if (lines != 1 && lines != 2) {
+      throw std::invalid_argument("V-cycle lines per task must be 1 or 2, got " +
+                                  std::to_string(lines));
+    }
+    lines_per_task_ = lines;
+  }
+  [[nodiscard]] int lines_per_task() const { return lines_per_task_; }
 
   /// Builds the hierarchy for the current model, then factorises every line of every level.
   /// The hierarchy's structure (level 0's nodes and pattern, the coarser levels and their
@@ -286,6 +302,7 @@ class VcyclePreconditioner {
   bool direct_ready_ = false;
   Eigen::VectorXd coarse_b_, coarse_x_;
   std::int64_t coarsest_nodes_ = kCoarsestNodes;
+  int lines_per_task_ = 2;
   std::int64_t factorisations_ = 0;
   std::int64_t structures_ = 0;
   double sequential_seconds_ = 0.0;

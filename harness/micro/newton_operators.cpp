@@ -5,6 +5,9 @@
 // Gauss-Seidel sweeps, residuals, restriction and prolongation on every level, the coarsest
 // level's direct solve), and the V-cycle's factorisation for a new model of the same
 // structure (Galerkin values and line factors; the structure is made once, in the set-up).
+// `vcycle_apply_one_line` is the same cycle with one line per smoothing task instead of two
+// (VcyclePreconditioner::set_lines_per_task; the same bits), so that the two compare as a
+// ratio within one run (add --benchmark_enable_random_interleaving=true on a noisy host).
 // These are what one inner PCG iteration and one Newton iteration cost besides the gradient;
 // compare them with `gradient/` as ns_per_element within one run.
 //
@@ -96,7 +99,7 @@ NewtonOperators& operators(int n) {
   return *cached;
 }
 
-enum class Operator { hessian_apply, vcycle_apply, vcycle_factor };
+enum class Operator { hessian_apply, vcycle_apply, vcycle_apply_one_line, vcycle_factor };
 
 void newton_operator(benchmark::State& state, Operator op) {
   const int n = static_cast<int>(state.range(0));
@@ -112,6 +115,7 @@ void newton_operator(benchmark::State& state, Operator op) {
           (void)hessian.apply(run, o.ctx, o.v, o.y);
           break;
         case Operator::vcycle_apply:
+        case Operator::vcycle_apply_one_line:
           vcycle.apply(run, o.ctx, o.v, o.y);
           break;
         case Operator::vcycle_factor:
@@ -120,11 +124,14 @@ void newton_operator(benchmark::State& state, Operator op) {
       }
     });
   };
+  const int lines_per_task = vcycle.lines_per_task();
+  vcycle.set_lines_per_task(op == Operator::vcycle_apply_one_line ? 1 : lines_per_task);
   once();  // warm
   for (auto _ : state) {
     once();
     benchmark::DoNotOptimize(o.y.data());
   }
+  vcycle.set_lines_per_task(lines_per_task);
   std::string label = "scalar";
   if (clothbench::micro::smoke()) label += " smoke";
   state.SetLabel(label);
@@ -142,6 +149,8 @@ void newton_operator(benchmark::State& state, Operator op) {
 BENCHMARK_CAPTURE(newton_operator, hessian_apply, Operator::hessian_apply)
     ->Apply(clothbench::micro::box_sizes);
 BENCHMARK_CAPTURE(newton_operator, vcycle_apply, Operator::vcycle_apply)
+    ->Apply(clothbench::micro::box_sizes);
+BENCHMARK_CAPTURE(newton_operator, vcycle_apply_one_line, Operator::vcycle_apply_one_line)
     ->Apply(clothbench::micro::box_sizes);
 BENCHMARK_CAPTURE(newton_operator, vcycle_factor, Operator::vcycle_factor)
     ->Apply(clothbench::micro::box_sizes);

@@ -71,7 +71,8 @@ TEST_F(MicroBenchmarks, EveryFamilyIsRegistered) {
        {"list_rebuild/sequential/", "list_rebuild/parallel_prefix_sum/", "mesh_rewrite/",
         "broad_phase_evaluation/box_101/", "broad_phase_steps/box_101/", "gradient/potential/101/",
         "gradient/potential_vector/101/", "newton_operator/hessian_apply/101/",
-        "newton_operator/vcycle_apply/101/", "newton_operator/vcycle_factor/101/",
+        "newton_operator/vcycle_apply/101/", "newton_operator/vcycle_apply_one_line/101/",
+        "newton_operator/vcycle_factor/101/",
         "triad/", "skip_contact/", "skip_amrc/", "skip_inactive/active_lists/",
         "scheduling_overhead/static@blocks/", "scheduling_overhead/active-lists@active/",
         "scheduling_overhead_dynamic_k/falls_with_k/", "scheduling_overhead_epcc_body/dynamic:1/"}) {

@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "newton_fixtures.hpp"
@@ -355,6 +357,29 @@ TEST(Vcycle, TheCycleIsSymmetricPositiveDefiniteOnCrumpledStatesInContact) {
     ASSERT_GE(v.levels(), 3);
     expect_symmetric_positive(f, seed);
   }
+}
+
+TEST(Vcycle, OneOrTwoLinesPerSmoothingTaskGiveTheSameBits) {
+  for (unsigned seed : {3u, 7u}) {
+    Fixture f(graded_cloth(true, Preconditioner::vcycle));
+    ASSERT_GE(graded_vcycle(f, seed).levels(), 3);
+    kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+    ASSERT_EQ(v.lines_per_task(), 2);
+    const std::vector<double> r = f.random_free(seed + 20);
+    const std::vector<double> two = f.precondition(r);
+    v.set_lines_per_task(1);
+    const std::vector<double> one = f.precondition(r);
+    ASSERT_EQ(one.size(), two.size());
+    EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)), 0) << seed;
+    double norm = 0.0;
+    for (const double z : one) norm += z * z;
+    EXPECT_GT(norm, 0.0);
+  }
+  Fixture f(graded_cloth(true, Preconditioner::vcycle));
+  kernels::VcyclePreconditioner& v = *f.objective.vcycle();
+  EXPECT_THROW(v.set_lines_per_task(3), std::invalid_argument);
+  EXPECT_THROW(v.set_lines_per_task(0), std::invalid_argument);
+  EXPECT_EQ(v.lines_per_task(), 2);
 }
 
 /// The model anew at the current state: no stiffness remembered, no last direction (so that
