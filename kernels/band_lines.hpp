@@ -28,30 +28,24 @@
 
 namespace clothbench::kernels::band {
 
-/// Row r of the Cholesky factor from the rows before it; false on a non-positive pivot.
-CLOTHBENCH_SCALAR_LOOPS inline bool cholesky_row(double* band, std::int64_t r, int w) {
-  const std::int64_t row = w + 1;
-  const std::int64_t first = std::max<std::int64_t>(0, r - w);
-  for (std::int64_t c = first; c <= r; ++c) {
-    double sum = band[r * row + c - r + w];
-    const std::int64_t from = std::max(first, c - w);
-    for (std::int64_t k = from; k < c; ++k)
-      sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
-    if (c == r) {
-      if (!(sum > 0.0) || !std::isfinite(sum)) return false;
-      band[r * row + w] = 1.0 / std::sqrt(sum);
-    } else {
-      band[r * row + c - r + w] = sum * band[c * row + w];
-    }
-  }
-  return true;
-}
-
-/// The n x n band overwritten by its factor; false on a non-positive pivot (the band is then
-/// partly factored and must not be solved with).
+/// The n x n band overwritten by its factor, row by row from the rows before it; false on a
+/// non-positive pivot (the band is then partly factored and must not be solved with).
 CLOTHBENCH_SCALAR_LOOPS inline bool cholesky(double* band, std::int64_t n, int w) {
+  const std::int64_t row = w + 1;
   for (std::int64_t r = 0; r < n; ++r) {
-    if (!cholesky_row(band, r, w)) return false;
+    const std::int64_t first = std::max<std::int64_t>(0, r - w);
+    for (std::int64_t c = first; c <= r; ++c) {
+      double sum = band[r * row + c - r + w];
+      const std::int64_t from = std::max(first, c - w);
+      for (std::int64_t k = from; k < c; ++k)
+        sum -= band[r * row + k - r + w] * band[c * row + k - c + w];
+      if (c == r) {
+        if (!(sum > 0.0) || !std::isfinite(sum)) return false;
+        band[r * row + w] = 1.0 / std::sqrt(sum);
+      } else {
+        band[r * row + c - r + w] = sum * band[c * row + w];
+      }
+    }
   }
   return true;
 }
@@ -86,8 +80,8 @@ CLOTHBENCH_SCALAR_LOOPS inline void solve(const double* band, std::int64_t n, in
 
 /// solve for two independent lines, rows interleaved.
 CLOTHBENCH_SCALAR_LOOPS inline void solve_pair(const double* band_a, std::int64_t n_a, int w_a,
-                                               double* x_a, const double* band_b,
-                                               std::int64_t n_b, int w_b, double* x_b) {
+                                               double* x_a, const double* band_b, std::int64_t n_b,
+                                               int w_b, double* x_b) {
   const std::int64_t both = std::min(n_a, n_b);
   for (std::int64_t r = 0; r < both; ++r) {
     forward_row(band_a, r, w_a, x_a);

@@ -49,7 +49,8 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_residual(Level& level, i
   }
 }
 
-CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_correct(Level& level, int d, std::int64_t line) {
+CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_correct(Level& level, int d,
+                                                                std::int64_t line) {
   const Lines& l = level.lines[d];
   const std::int64_t first = l.start[line];
   const double* rhs = level.scratch.data() + 3 * first;
@@ -61,7 +62,7 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::line_correct(Level& level, in
 
 void VcyclePreconditioner::update_lines(Level& level, int d, std::int64_t line_a,
                                         std::int64_t line_b) {
-  Lines& l = level.lines[d];
+  const Lines& l = level.lines[d];
   const bool a = l.ok[line_a] != 0;
   const bool b = line_b >= 0 && l.ok[line_b] != 0;
   auto rows = [&](std::int64_t line) { return 3 * (l.start[line + 1] - l.start[line]); };
@@ -83,20 +84,18 @@ void VcyclePreconditioner::update_lines(Level& level, int d, std::int64_t line_a
 void VcyclePreconditioner::smooth(LoopRunner& run, Level& level, bool forward) {
   auto sweep = [&](int d, int colour) {
     const Lines& l = level.lines[d];
-    // A colour's lines are independent (none reads another's nodes): they go two at a time,
-    // the k-th pair being the colour's lines 2k and 2k + 1 whatever the schedule (or one at a
-    // time: the same bits).
+    // A colour's lines are independent (none reads another's nodes): task k takes the
+    // colour's lines per k and per k + 1 (per = lines_per_task_, 1 or 2) whatever the
+    // schedule; the bits are the same for either per.
     const std::int64_t b = l.colour_start[colour];
     const std::int64_t count = l.colour_start[colour + 1] - b;
-    if (lines_per_task_ == 1) {
-      run.for_index(count, vcycle_bytes::line_sweep(level, d, 1),
-                    [&](std::int64_t k) { update_lines(level, d, l.by_colour[b + k], -1); });
-      return;
-    }
-    run.for_index((count + 1) / 2, vcycle_bytes::line_sweep(level, d, 2), [&](std::int64_t k) {
-      update_lines(level, d, l.by_colour[b + 2 * k],
-                   2 * k + 1 < count ? l.by_colour[b + 2 * k + 1] : -1);
-    });
+    const int per = lines_per_task_;
+    run.for_index((count + per - 1) / per, vcycle_bytes::line_sweep(level, d, per),
+                  [&](std::int64_t k) {
+                    const std::int64_t first = b + per * k;
+                    const bool pair = per == 2 && per * k + 1 < count;
+                    update_lines(level, d, l.by_colour[first], pair ? l.by_colour[first + 1] : -1);
+                  });
   };
   if (forward) {
     for (int d = 0; d < 2; ++d) {

@@ -106,8 +106,7 @@ TEST(BandLines, ThePairSolveGivesEachLineTheBitsOfItsOwnSolve) {
     std::vector<double> single_a = ba, single_b = bb, pair_a = ba, pair_b = bb;
     band::solve(fa.data(), la.n, la.w, single_a.data());
     band::solve(fb.data(), lb.n, lb.w, single_b.data());
-    band::solve_pair(fa.data(), la.n, la.w, pair_a.data(), fb.data(), lb.n, lb.w,
-                     pair_b.data());
+    band::solve_pair(fa.data(), la.n, la.w, pair_a.data(), fb.data(), lb.n, lb.w, pair_b.data());
     EXPECT_EQ(0, std::memcmp(single_a.data(), pair_a.data(), single_a.size() * sizeof(double)))
         << "line a: n " << la.n << " w " << la.w << " beside n " << lb.n << " w " << lb.w;
     EXPECT_EQ(0, std::memcmp(single_b.data(), pair_b.data(), single_b.size() * sizeof(double)))
