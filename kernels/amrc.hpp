@@ -40,6 +40,9 @@ struct AmrcEvent {
   double criterion_seconds = 0.0;       ///< evaluating the bending measure and marking cells
   double update_seconds = 0.0;          ///< tree changes, mesh rewrite, warm starts
   double list_seconds = 0.0;            ///< Active-Lists rebuild (0 when no list is in use)
+  /// Bytes of the unused slots' pages handed back to the system after the event
+  /// (Simulation::release_unused_pages; 0 when it is off or the event changed nothing).
+  std::size_t released_bytes = 0;
   [[nodiscard]] bool changed() const { return refined + coarsened > 0; }
 };
 

@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "kernels/slot_pages.hpp"
+
 namespace clothbench::kernels {
 
 /// 3-vector view of slot s of an interleaved xyz array.
@@ -66,6 +68,19 @@ struct ClothState {
     triple_breakpoints.assign(4 * n, 0.0);
     triple_offloading.assign(vector_kernel ? 4 * n : 0, 0.0);
     triple_offloading.shrink_to_fit();
+  }
+  /// Hands back the pages of unused slots (slot_pages.hpp) of the arrays no loop reads at an
+  /// unused slot: x^n, x~, the gradients, the direction, the block-Jacobi blocks and the
+  /// bending cache. Not position, edge_force and triple_moment (the verified state, digested
+  /// over every slot) nor the scratch arrays, which an AMRC event writes at every slot.
+  /// Returns the bytes handed back.
+  std::size_t release_unused(const SlotRuns& runs) {
+    std::size_t b = release_slot_pages(preconditioner, 6, runs) +
+                    release_slot_pages(triple_offloading, 4, runs);
+    for (auto* v : {&step_start, &target, &gradient, &gradient_old, &direction}) {
+      b += release_slot_pages(*v, 3, runs);
+    }
+    return b;
   }
   /// Bytes held by the arrays.
   [[nodiscard]] std::size_t memory_bytes() const {

@@ -287,6 +287,22 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
   return run.reduce(dot_partials_).value;
 }
 
+void ModelHessian::forget_inactive(const ClothMesh& mesh) {
+  const std::int64_t ids = 2 * mesh.slot_count();
+  // Reads before it writes: a page handed back (slot_pages.hpp) reads as zero without being
+  // brought back.
+#pragma omp parallel for schedule(static)
+  for (std::int64_t id = 0; id < ids; ++id) {
+    if (!mesh.edge_active[id] && (edge_[2 * id] != 0.0 || edge_[2 * id + 1] != 0.0)) {
+      edge_[2 * id] = edge_[2 * id + 1] = 0.0;
+    }
+    if (!mesh.triple_active[id]) {
+      if (bending_[id] != 0.0) bending_[id] = 0.0;
+      if (bending_along_[id] != 0.0) bending_along_[id] = 0.0;
+    }
+  }
+}
+
 std::size_t ModelHessian::memory_bytes() const {
   return (inertia_.capacity() + edge_.capacity() + bending_.capacity() +
           bending_along_.capacity()) *

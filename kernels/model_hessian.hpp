@@ -49,6 +49,7 @@
 #include <vector>
 
 #include "kernels/loop_runner.hpp"
+#include "kernels/slot_pages.hpp"
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
@@ -153,6 +154,19 @@ class ModelHessian {
   /// Edge tangent K_e of active edge id as assembled (the line solves' couplings).
   [[nodiscard]] Eigen::Matrix3d edge_block(const StepContext& ctx, std::int64_t id) const;
 
+  /// Drops the stiffness memory of every element that is not active on `mesh` (writing only
+  /// where it is not zero already): an element an AMRC event takes away starts from the
+  /// tangent and the secant alone when a later event brings it back, not from what it was
+  /// given on an earlier mesh. Called after every event that changed the mesh. Sequential in
+  /// its caller's view (its own parallel loop); outside a parallel region.
+  void forget_inactive(const ClothMesh& mesh);
+  /// Hands back the pages of unused slots of the model's arrays (slot_pages.hpp): the inertia
+  /// blocks are written for every active particle before they are read, and an unused slot's
+  /// elements are inactive, whose memory forget_inactive keeps at zero. Returns the bytes.
+  std::size_t release_unused(const SlotRuns& runs) {
+    return release_slot_pages(inertia_, 6, runs) + release_slot_pages(edge_, 4, runs) +
+           release_slot_pages(bending_, 2, runs) + release_slot_pages(bending_along_, 2, runs);
+  }
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Bytes per slot (memory estimates).
   static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2 + 2) * sizeof(double);

@@ -8,6 +8,7 @@
 
 #include "kernels/loop_runner.hpp"
 #include "kernels/model_hessian.hpp"
+#include "kernels/slot_pages.hpp"
 
 namespace clothbench::kernels {
 
@@ -45,6 +46,12 @@ struct NewtonSystem {
   std::vector<double> search;    ///< the PCG search direction, 3 per slot (ghosts: midpoints)
   std::vector<double> product;   ///< H search, then the preconditioned residual z
   TilePartials<PcgSums> partials;
+  /// Hands back the pages of unused slots of the model and the PCG vectors (slot_pages.hpp).
+  /// Returns the bytes.
+  std::size_t release_unused(const SlotRuns& runs) {
+    return hessian.release_unused(runs) + release_slot_pages(residual, 3, runs) +
+           release_slot_pages(search, 3, runs) + release_slot_pages(product, 3, runs);
+  }
   [[nodiscard]] std::size_t memory_bytes() const {
     return hessian.memory_bytes() +
            (residual.capacity() + search.capacity() + product.capacity()) * sizeof(double);

@@ -60,6 +60,12 @@ class PotentialObjective final : public StepObjective {
            (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes()) +
            (vcycle_ == nullptr ? 0 : vcycle_->memory_bytes());
   }
+  std::size_t release_unused(const SlotRuns& runs) override {
+    return newton_ == nullptr ? 0 : newton_->release_unused(runs);
+  }
+  void mesh_changed() override {
+    if (newton_ != nullptr) newton_->hessian.forget_inactive(ctx_.mesh);
+  }
 
   // --- Newton (StepMethod::newton; potential_newton.cpp) ---------------------------------
   /// Assembles the model Hessian and its preconditioner (block Jacobi, line solves on the

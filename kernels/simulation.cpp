@@ -16,6 +16,7 @@
 #include "kernels/newton_minimiser.hpp"
 #include "kernels/newton_system.hpp"
 #include "kernels/potential_objective.hpp"
+#include "kernels/slot_pages.hpp"
 #include "kernels/step_context.hpp"
 #include "kernels/violation_objective.hpp"
 
@@ -176,7 +177,25 @@ AmrcEvent Simulation::adapt() {
     event.update_seconds += monotonic_seconds() - start;
   }
   if (event.changed() && lists_built_) event.list_seconds = rebuild_lists();
+  if (event.changed()) {
+    const double start = monotonic_seconds();
+    event.released_bytes = after_mesh_change();
+    event.update_seconds += monotonic_seconds() - start;
+  }
   return event;
+}
+
+std::size_t Simulation::after_mesh_change() {
+  const std::size_t released = release_unused_pages_ ? release_unused_pages() : 0;
+  objective_->mesh_changed();  // after the release: its reads of pages handed back stay free
+  return released;
+}
+
+std::size_t Simulation::release_unused_pages() {
+  const SlotRuns runs = unused_slot_runs(mesh_);
+  // An unused slot's mass is 0 and stays 0 when its page comes back as zeros.
+  return state_.release_unused(runs) + objective_->release_unused(runs) +
+         release_slot_pages(mesh_.mass, 1, runs);
 }
 
 void Simulation::lift_out_of_obstacles() {
@@ -222,6 +241,7 @@ void Simulation::end_tree_edit() {
   amrc_->finish_change(mesh_, state_);
   lift_out_of_obstacles();
   if (lists_built_) rebuild_lists();
+  after_mesh_change();
 }
 
 std::vector<double> Simulation::surface_positions() const {

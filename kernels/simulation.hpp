@@ -153,6 +153,14 @@ class Simulation {
 
   /// How the Active-Lists are rebuilt after an AMRC event (parallel prefix sum by default).
   void set_list_build(ListBuild build) { list_build_ = build; }
+  /// Whether the pages of unused slots are handed back after every AMRC event that changed
+  /// the mesh (slot_pages.hpp; on by default). Off keeps every page: the same results, bit for
+  /// bit (tests compare the two).
+  void set_release_unused_pages(bool on) { release_unused_pages_ = on; }
+  /// Hands back now the pages of the slots that are neither particle nor ghost, of the arrays
+  /// that are not read there (ClothState::release_unused, the objective's, the masses); returns
+  /// the bytes. Done by adapt() and end_tree_edit() when the setting is on.
+  std::size_t release_unused_pages();
   /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
   double rebuild_lists();
   [[nodiscard]] const ActiveLists* active_lists() const { return lists_built_ ? &lists_ : nullptr; }
@@ -174,6 +182,9 @@ class Simulation {
   /// obstacle's normal to the contact distance (x, x^n and x~ alike) and puts the ghosts back
   /// on their parents' midpoints. A state with no particle inside an obstacle is unchanged.
   void lift_out_of_obstacles();
+  /// After an AMRC event that changed the mesh: hands back the unused slots' pages (when the
+  /// setting is on; returns the bytes) and lets the objective forget the inactive elements.
+  std::size_t after_mesh_change();
   /// The carried velocity (target - step_start) of a step of length `from` made that of a step
   /// of length `to`: scaled by the length and by the damping rate (called by every thread of
   /// the step's region).
@@ -187,6 +198,7 @@ class Simulation {
   ActiveLists lists_;
   bool lists_built_ = false;
   ListBuild list_build_ = ListBuild::parallel_prefix_sum;
+  bool release_unused_pages_ = true;
   std::unique_ptr<AdaptiveMesh> amrc_;
   std::unique_ptr<StepObjective> objective_;
   /// The objective again when the method is Newton (potential formulation only), else null.

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "kernels/loop_runner.hpp"
+#include "kernels/slot_pages.hpp"
 #include "kernels/step_context.hpp"
 
 namespace clothbench::kernels {
@@ -101,6 +102,12 @@ class StepObjective {
 
   /// Bytes the objective holds beyond ClothState (the line-solve preconditioner's arrays).
   [[nodiscard]] virtual std::size_t memory_bytes() const { return 0; }
+  /// Hands back the pages of unused slots of the objective's own arrays (slot_pages.hpp)
+  /// after an AMRC event; returns the bytes.
+  virtual std::size_t release_unused(const SlotRuns& /*runs*/) { return 0; }
+  /// After an AMRC event that changed the mesh, whether or not pages are handed back: what
+  /// the objective keeps from step to step per element forgets the elements now inactive.
+  virtual void mesh_changed() {}
 
   /// Contact work of every evaluation so far (written by thread 0 of each evaluation).
   [[nodiscard]] const ContactWork& contact_work() const { return contact_work_; }

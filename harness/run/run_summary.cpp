@@ -113,9 +113,13 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
         const kernels::AmrcEvent& e = *report.amrc;
         fmt::print("  AMRC after step {:4d}: {} particles, {} edges, {} triples, {} ghosts "
                    "(split {}, merged {}); criterion {:.3f} ms, mesh update {:.3f} ms, "
-                   "lists {:.3f} ms\n",
+                   "lists {:.3f} ms{}\n",
                    e.step, e.particles, e.edges, e.triples, e.ghosts, e.refined, e.coarsened,
-                   1e3 * e.criterion_seconds, 1e3 * e.update_seconds, 1e3 * e.list_seconds);
+                   1e3 * e.criterion_seconds, 1e3 * e.update_seconds, 1e3 * e.list_seconds,
+                   e.released_bytes > 0
+                       ? fmt::format("; unused slots' pages handed back {:.1f} MiB",
+                                     static_cast<double>(e.released_bytes) / (1u << 20))
+                       : "");
       }
       std::fflush(stdout);  // progress is visible when stdout is a file or a pipe
     }
@@ -323,7 +327,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                         {"coarsened", e.coarsened},
                         {"criterion_seconds", e.criterion_seconds},
                         {"update_seconds", e.update_seconds},
-                        {"list_seconds", e.list_seconds}});
+                        {"list_seconds", e.list_seconds},
+                        {"released_bytes", e.released_bytes}});
     }
     doc["amrc"] = {{"levels", scene.simulation.amrc.levels},
                    {"check_every", scene.simulation.amrc.check_every},

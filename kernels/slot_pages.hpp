@@ -1,0 +1,36 @@
+// Returning the memory of unused slots to the system. AMRC keeps the finest mesh's storage
+// and flips slots between active and inactive in place (MODEL.md 6), so after coarsening most
+// of a per-slot array belongs to slots no particle or ghost uses: at the paper's 1001^2 box, 3 %
+// of the 1,002,001 slots are in use after its first events. The pages that hold only such slots
+// are handed back (Linux madvise MADV_DONTNEED: the next touch maps a fresh zero page), and the
+// arrays keep their size and addresses. Only arrays whose unused entries are never read while
+// unused may be released: their values there are lost (they read as zero). Elsewhere (no
+// madvise) release_slot_pages does nothing and returns 0.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "kernels/cloth_mesh.hpp"
+
+namespace clothbench::kernels {
+
+/// Maximal runs [first, last) of consecutive slots that are neither a particle nor a ghost
+/// (is_node false), in slot order.
+using SlotRuns = std::vector<std::pair<std::int64_t, std::int64_t>>;
+SlotRuns unused_slot_runs(const ClothMesh& mesh);
+
+/// Hands back to the system the whole pages of `data` (an array of `per_slot` elements of
+/// `element_bytes` each, per slot) that lie inside one of `runs`. Returns the bytes handed
+/// back (the pages' sizes, whether or not they were resident).
+std::size_t release_slot_pages(void* data, std::size_t element_bytes, std::size_t per_slot,
+                               const SlotRuns& runs);
+
+template <class T>
+std::size_t release_slot_pages(std::vector<T>& values, std::size_t per_slot, const SlotRuns& runs) {
+  return values.empty() ? 0 : release_slot_pages(values.data(), sizeof(T), per_slot, runs);
+}
+
+}  // namespace clothbench::kernels
