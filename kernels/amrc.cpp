@@ -19,6 +19,15 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// AdaptiveMesh::carried_ per element id: the old triple's moment is recorded (triple_scratch),
+// the old edge starting here is recorded (edge_scratch) with log2 of its span in the bits above.
+constexpr std::uint8_t kCarriedTriple = 1;
+constexpr std::uint8_t kCarriedEdge = 2;
+constexpr int kSpanShift = 2;
+// The largest turning angle at a slot is kept at triple_breakpoints[kAngleStride * slot], the
+// first of the slot's own four breakpoints.
+constexpr std::int64_t kAngleStride = 4;
+
 /// How a grid point relates to the leaves around it.
 struct PointKind {
   bool node = false;   ///< a corner of at least one leaf
@@ -63,6 +72,7 @@ AdaptiveMesh::AdaptiveMesh(const ClothMesh& mesh, int levels)
   }
   leaf_.assign(static_cast<std::size_t>(cells_i_) * cells_j_, 0);
   old_leaf_.assign(leaf_.size(), 0);
+  carried_.assign(2 * static_cast<std::size_t>(mesh.slot_count()), 0);
 }
 
 bool AdaptiveMesh::is_leaf(const TreeCell& c) const {
@@ -303,7 +313,10 @@ void AdaptiveMesh::node_angles(const ClothMesh& mesh, const ClothState& state,
       const Eigen::Vector3d e2 = vec3(state.position, mesh.next[id]) - xc;
       largest = std::max(largest, turning_angle<double>(e1, e2).theta);
     }
-    angle[static_cast<std::size_t>(s)] = largest;
+    // Read before written: a slot with no triple keeps an unused slot's page handed back
+    // (slot_pages.hpp) with the system, as reading it maps no memory.
+    double& out = angle[static_cast<std::size_t>(kAngleStride * s)];
+    if (largest != 0.0 || out != 0.0) out = largest;
   }
 }
 
@@ -336,15 +349,31 @@ void AdaptiveMesh::interpolate_inactive(const ClothMesh& mesh, std::vector<doubl
 }
 
 void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const {
-  // Fields built by run_event before the mesh changed: per finest segment (2*slot+d, the
-  // segment from the slot to the next grid point along d) the old edge's force in
-  // edge_scratch, per slot and direction the old triple's moment in triple_scratch; NaN where
-  // there was none. Forces are per unit width, so merged elements take the mean and split
-  // ones inherit.
-  const std::vector<double>& edge_field = state.edge_scratch;
-  const std::vector<double>& triple_field = state.triple_scratch;
+  // What begin_change recorded before the mesh changed: at the id of each old edge its force
+  // (edge_scratch) and span, at the id of each old triple its moment (triple_scratch); marked
+  // in carried_. The old edge field of a finest segment (the segment from grid point (i, j)
+  // to the next along d) is the force of the old edge that covers it - the nearest recorded
+  // edge start behind it on the same line, if its span reaches - and NaN where there was none
+  // (inside an old coarse cell); likewise the triple field is NaN where no old triple was.
+  // Forces are per unit width, so merged elements take the mean and split ones inherit.
+  const std::vector<double>& edge_forces = state.edge_scratch;
+  const std::vector<double>& triple_moments = state.triple_scratch;
   const int size_i = mesh.size_i(), size_j = mesh.size_j();
   const int reach = 1 << levels_;
+  const auto edge_field = [&](int i, int j, int d) {
+    const int di = d == 0 ? 1 : 0, dj = 1 - di;
+    for (int t = 0; t < reach; ++t) {
+      const int si = i - t * di, sj = j - t * dj;
+      if (si < 0 || sj < 0) break;
+      const std::int64_t id = element_id(mesh.slot(si, sj), d);
+      const std::uint8_t mark = carried_[id];
+      if (mark & kCarriedEdge) return t < (1 << (mark >> kSpanShift)) ? edge_forces[id] : kNaN;
+    }
+    return kNaN;
+  };
+  const auto triple_field = [&](std::int64_t id) {
+    return carried_[id] & kCarriedTriple ? triple_moments[id] : kNaN;
+  };
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < size_i; ++i) {
     for (int j = 0; j < size_j; ++j) {
@@ -364,7 +393,7 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
               const int ci = i + side * r * dj, cj = j + side * r * di;  // offset across the line
               if (ci < 0 || cj < 0 || ci >= size_i || cj >= size_j) continue;
               for (int t = 0; t < span; ++t) {
-                const double f = edge_field[element_id(mesh.slot(ci + t * di, cj + t * dj), d)];
+                const double f = edge_field(ci + t * di, cj + t * dj, d);
                 if (std::isnan(f)) continue;
                 if (count == 0) first = f;
                 uniform = uniform && f == first;
@@ -376,7 +405,7 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
           state.edge_force[id] = count == 0 ? 0.0 : uniform ? first : sum / count;
         }
         if (mesh.triple_active[id]) {
-          const double own = triple_field[id];
+          const double own = triple_field(id);
           if (!std::isnan(own)) {
             state.triple_moment[id] = own;
             continue;
@@ -392,7 +421,7 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
             for (int t = 1; t <= reach; ++t) {
               const int pi = i + step * t * di, pj = j + step * t * dj;
               if (pi < 0 || pj < 0 || pi >= size_i || pj >= size_j) break;
-              const double f = triple_field[element_id(mesh.slot(pi, pj), d)];
+              const double f = triple_field(element_id(mesh.slot(pi, pj), d));
               if (!std::isnan(f)) {
                 near[side] = f;
                 distance[side] = t;
@@ -413,7 +442,7 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
             for (int side = -1; side <= 1; side += 2) {
               const int pi = i + side * r * dj, pj = j + side * r * di;
               if (pi < 0 || pj < 0 || pi >= size_i || pj >= size_j) continue;
-              const double f = triple_field[element_id(mesh.slot(pi, pj), d)];
+              const double f = triple_field(element_id(mesh.slot(pi, pj), d));
               if (!std::isnan(f)) {
                 sum += f;
                 ++count;
@@ -435,23 +464,25 @@ void AdaptiveMesh::begin_change(const ClothMesh& mesh, ClothState& state) {
   // Fields of the old forces (see carry_forces) and the old tree.
   std::copy(leaf_.begin(), leaf_.end(), old_leaf_.begin());
   const std::int64_t slots = mesh.slot_count();
+  // Written only at the ids of active elements (see carried_).
 #pragma omp parallel for schedule(static)
   for (std::int64_t id = 0; id < 2 * slots; ++id) {
-    state.edge_scratch[id] = kNaN;
-    state.triple_scratch[id] = mesh.triple_active[id] ? state.triple_moment[id] : kNaN;
-  }
-#pragma omp parallel for schedule(static)
-  for (std::int64_t id = 0; id < 2 * slots; ++id) {
-    if (!mesh.edge_active[id]) continue;
-    const std::int64_t s = element_slot(id);
-    const int d = element_direction(id);
-    const int i = mesh.grid_i(s), j = mesh.grid_j(s);
-    const std::int32_t n = mesh.next[id];
-    const int span = d == 0 ? mesh.grid_i(n) - i : mesh.grid_j(n) - j;
-    for (int t = 0; t < span; ++t) {
-      const std::int32_t k = d == 0 ? mesh.slot(i + t, j) : mesh.slot(i, j + t);
-      state.edge_scratch[element_id(k, d)] = state.edge_force[id];
+    std::uint8_t mark = 0;
+    if (mesh.triple_active[id]) {
+      state.triple_scratch[id] = state.triple_moment[id];
+      mark |= kCarriedTriple;
     }
+    if (mesh.edge_active[id]) {
+      const std::int64_t s = element_slot(id);
+      const std::int32_t n = mesh.next[id];
+      const int span = element_direction(id) == 0 ? mesh.grid_i(n) - mesh.grid_i(s)
+                                                  : mesh.grid_j(n) - mesh.grid_j(s);
+      int log_span = 0;
+      while ((1 << log_span) < span) ++log_span;
+      state.edge_scratch[id] = state.edge_force[id];
+      mark |= kCarriedEdge | static_cast<std::uint8_t>(log_span << kSpanShift);
+    }
+    carried_[id] = mark;
   }
 }
 
@@ -491,10 +522,13 @@ AmrcEvent AdaptiveMesh::run_event(int step, const AmrcConfig& config, ClothMesh&
   const double t0 = monotonic_seconds();
 
   // Criterion: the largest turning angle of the triples at each node (state.triple_breakpoints
-  // is per-step work space, recomputed when the next step begins).
+  // is per-step work space, recomputed when the next step begins; a slot's angle is kept where
+  // its own breakpoints are, so the event writes no page of an unused slot).
   std::vector<double>& angle = state.triple_breakpoints;
   node_angles(mesh, state, angle);
-  auto angle_at = [&](int i, int j) { return angle[static_cast<std::size_t>(mesh.slot(i, j))]; };
+  auto angle_at = [&](int i, int j) {
+    return angle[static_cast<std::size_t>(kAngleStride * mesh.slot(i, j))];
+  };
   std::vector<TreeCell> refine_cells, coarsen_cells;
   for (int k = 1; k <= levels_; ++k) {
     const int size = 1 << k, half = size / 2;

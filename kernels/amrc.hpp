@@ -99,12 +99,15 @@ class AdaptiveMesh {
   /// The leaves, coarse to fine (for pictures and tests).
   [[nodiscard]] std::vector<TreeCell> leaves() const;
 
-  /// Bytes held by the tree.
-  [[nodiscard]] std::size_t memory_bytes() const { return leaf_.capacity() + old_leaf_.capacity(); }
+  /// Bytes held by the tree and the event's marks.
+  [[nodiscard]] std::size_t memory_bytes() const {
+    return leaf_.capacity() + old_leaf_.capacity() + carried_.capacity();
+  }
 
  private:
   void set_cell(const TreeCell& c, int level);
-  /// Largest turning angle of the active triples centred on each slot (into `angle`).
+  /// Largest turning angle of the active triples centred on each slot (into `angle`, at 4 x the
+  /// slot: the triple_breakpoints layout of two ids a slot and two breakpoints an id).
   void node_angles(const ClothMesh& mesh, const ClothState& state, std::vector<double>& angle) const;
   /// Bilinear value of `values` at grid point (i, j) inside the leaf holding it, using the
   /// tree in `leaf` and the mesh's current flags and neighbours for ghost corners.
@@ -116,6 +119,11 @@ class AdaptiveMesh {
   int cells_i_, cells_j_;  // finest cells along i and j
   std::vector<std::uint8_t> leaf_;      // leaf level per finest cell
   std::vector<std::uint8_t> old_leaf_;  // the tree before the current event
+  /// Per element id, during an event: which of the old forces begin_change() recorded there
+  /// (kCarriedEdge, kCarriedTriple). The values themselves are in the state's edge_scratch and
+  /// triple_scratch, written only where marked: the scratch arrays' pages at unused slots are
+  /// never touched by an event, so they can stay with the system (ClothState::release_unused).
+  std::vector<std::uint8_t> carried_;
 };
 
 }  // namespace clothbench::kernels

@@ -70,13 +70,16 @@ struct ClothState {
     triple_offloading.shrink_to_fit();
   }
   /// Hands back the pages of unused slots (slot_pages.hpp) of the arrays no loop reads at an
-  /// unused slot: x^n, x~, the gradients, the direction, the block-Jacobi blocks and the
-  /// bending cache. Not position, edge_force and triple_moment (the verified state, digested
-  /// over every slot) nor the scratch arrays, which an AMRC event writes at every slot.
-  /// Returns the bytes handed back.
+  /// unused slot: x^n, x~, the gradients, the direction, the block-Jacobi blocks, the bending
+  /// cache and the per-evaluation scratch (an AMRC event writes it only at the ids of active
+  /// elements, AdaptiveMesh::begin_change). Not position, edge_force and triple_moment (the
+  /// verified state, digested over every slot). Returns the bytes handed back.
   std::size_t release_unused(const SlotRuns& runs) {
     std::size_t b = release_slot_pages(preconditioner, 6, runs) +
-                    release_slot_pages(triple_offloading, 4, runs);
+                    release_slot_pages(triple_offloading, 4, runs) +
+                    release_slot_pages(edge_scratch, 2, runs) +
+                    release_slot_pages(triple_scratch, 6, runs) +
+                    release_slot_pages(triple_breakpoints, 4, runs);
     for (auto* v : {&step_start, &target, &gradient, &gradient_old, &direction}) {
       b += release_slot_pages(*v, 3, runs);
     }
