@@ -11,13 +11,6 @@ namespace clothbench::kernels {
 
 namespace {
 
-Eigen::Matrix3d load_symmetric(const std::vector<double>& in, std::int64_t s) {
-  const double* p = in.data() + 6 * s;
-  Eigen::Matrix3d m;
-  m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
-  return m;
-}
-
 /// The arms of triple id: unit vectors u1 = e1/|e1|, u2 = e2/|e2| and 1/|e1|, 1/|e2|, with
 /// e1 = x_c - x_a, e2 = x_b - x_c. `valid` is false when an arm has zero length.
 struct TripleArms {
@@ -56,7 +49,8 @@ inline Eigen::Vector3d edge_product(double alpha, double beta, const Eigen::Vect
 
 ModelHessian::ModelHessian(const ClothMesh& mesh) : dot_partials_(mesh.tile_count()) {
   const auto slots = static_cast<std::size_t>(mesh.slot_count());
-  inertia_.assign(6 * slots, 0.0);
+  contact_of_.assign(slots, -1);
+  tile_contact_.resize(static_cast<std::size_t>(mesh.tile_count()));
   edge_.assign(4 * slots, 0.0);
   bending_.assign(2 * slots, 0.0);
   bending_along_.assign(2 * slots, 0.0);
@@ -270,18 +264,24 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
     }
     return out;
   };
-  // Flags, the inertia block, x, v, the slot's elements and its triples' q read; y written.
-  const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kBlockD + 2 * bytes::kVector3 +
-                                         bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
-                                 .written = bytes::kVector3};
-  run.for_each<ScalarSum>(
-      ElementKind::particles, &dot_partials_, particle_bytes, [&](std::int64_t s, ScalarSum& acc) {
+  // Flags, the mass and contact index, x, v, the slot's elements and its triples' q read; y
+  // written (a contact block read besides for the few particles near an obstacle).
+  const LoopBytes particle_bytes{
+      .read = bytes::kFlag + bytes::kDouble + bytes::kIndex + 2 * bytes::kVector3 +
+              bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
+      .written = bytes::kVector3};
+  run.for_each_prepared<ScalarSum>(
+      ElementKind::particles, &dot_partials_, particle_bytes,
+      [&](std::int64_t tile, ScalarSum&) { return &tile_contact_[static_cast<std::size_t>(tile)]; },
+      [&](std::int64_t s, ScalarSum& acc, const std::vector<double>* blocks) {
         auto out = vec3(y, s);
         if (!ctx.is_free(s)) {
           out.setZero();
           return;
         }
-        out = load_symmetric(inertia_, s) * value(s) + with_ghost_children(mesh, s, node_product);
+        const std::int32_t c = contact_of_[s];
+        const Eigen::Matrix3d own = c < 0 ? particle_inertia(ctx, s) : contact_block(*blocks, c);
+        out = own * value(s) + with_ghost_children(mesh, s, node_product);
         acc.value += value(s).dot(out);
       });
   return run.reduce(dot_partials_).value;
@@ -301,12 +301,34 @@ void ModelHessian::forget_inactive(const ClothMesh& mesh) {
       if (bending_along_[id] != 0.0) bending_along_[id] = 0.0;
     }
   }
+  // A tile left without particles keeps no contact blocks (no slot of it reads them).
+  const auto tiles = static_cast<std::int64_t>(tile_contact_.size());
+#pragma omp parallel for schedule(static)
+  for (std::int64_t t = 0; t < tiles; ++t) {
+    std::vector<double>& blocks = tile_contact_[static_cast<std::size_t>(t)];
+    if (blocks.capacity() == 0) continue;
+    bool particles = false;
+    for (std::int64_t s = mesh.tile_slot_begin[t]; s < mesh.tile_slot_begin[t + 1] && !particles;
+         ++s) {
+      particles = (mesh.flags[s] & kParticleActive) != 0;
+    }
+    if (!particles) std::vector<double>().swap(blocks);
+  }
 }
 
 std::size_t ModelHessian::memory_bytes() const {
-  return (inertia_.capacity() + edge_.capacity() + bending_.capacity() +
-          bending_along_.capacity()) *
-         sizeof(double);
+  std::size_t b = (edge_.capacity() + bending_.capacity() + bending_along_.capacity()) *
+                      sizeof(double) +
+                  contact_of_.capacity() * sizeof(std::int32_t) +
+                  tile_contact_.capacity() * sizeof(std::vector<double>);
+  for (const std::vector<double>& blocks : tile_contact_) b += blocks.capacity() * sizeof(double);
+  return b;
+}
+
+std::int64_t ModelHessian::contact_blocks() const {
+  std::size_t values = 0;
+  for (const std::vector<double>& blocks : tile_contact_) values += blocks.size();
+  return static_cast<std::int64_t>(values / 6);
 }
 
 }  // namespace clothbench::kernels

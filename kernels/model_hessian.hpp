@@ -46,6 +46,7 @@
 #include <Eigen/SparseCore>
 #include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "kernels/loop_runner.hpp"
@@ -63,9 +64,10 @@ class ModelHessian {
   /// What a particle loop over the model reads per element id of its slot (loop_bytes.hpp):
   /// next, prev, both element flags, the edge's alpha and beta, the triple's two coefficients.
   static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble;
-  /// What sum_row reads of its particle: the inertia block, the position, its slot's elements.
-  static constexpr double kRowRead =
-      bytes::kBlockD + bytes::kVector3 + bytes::kIdsPerSlot * kElementRead;
+  /// What sum_row reads of its particle: the mass and contact index, the position, its slot's
+  /// elements.
+  static constexpr double kRowRead = bytes::kDouble + bytes::kIndex + bytes::kVector3 +
+                                     bytes::kIdsPerSlot * kElementRead;
 
   explicit ModelHessian(const ClothMesh& mesh);
 
@@ -157,19 +159,33 @@ class ModelHessian {
   /// Drops the stiffness memory of every element that is not active on `mesh` (writing only
   /// where it is not zero already): an element an AMRC event takes away starts from the
   /// tangent and the secant alone when a later event brings it back, not from what it was
-  /// given on an earlier mesh. Called after every event that changed the mesh. Sequential in
-  /// its caller's view (its own parallel loop); outside a parallel region.
+  /// given on an earlier mesh; and frees the contact blocks of every tile left without
+  /// particles. Called after every event that changed the mesh. Sequential in its caller's
+  /// view (its own parallel loops); outside a parallel region.
   void forget_inactive(const ClothMesh& mesh);
-  /// Hands back the pages of unused slots of the model's arrays (slot_pages.hpp): the inertia
-  /// blocks are written for every active particle before they are read, and an unused slot's
+  /// Hands back the pages of unused slots of the model's arrays (slot_pages.hpp): the contact
+  /// indices are written for every active particle before they are read, and an unused slot's
   /// elements are inactive, whose memory forget_inactive keeps at zero. Returns the bytes.
   std::size_t release_unused(const SlotRuns& runs) {
-    return release_slot_pages(inertia_, 6, runs) + release_slot_pages(edge_, 4, runs) +
+    return release_slot_pages(contact_of_, 1, runs) + release_slot_pages(edge_, 4, runs) +
            release_slot_pages(bending_, 2, runs) + release_slot_pages(bending_along_, 2, runs);
   }
   [[nodiscard]] std::size_t memory_bytes() const;
-  /// Bytes per slot (memory estimates).
-  static constexpr std::size_t kBytesPerSlot = (6 + 4 + 2 + 2) * sizeof(double);
+  /// Bytes per slot (memory estimates): the elements' coefficients, the contact index, and a
+  /// contact block for every particle at most.
+  static constexpr std::size_t kBytesPerSlot =
+      (4 + 2 + 2) * sizeof(double) + sizeof(std::int32_t) + 6 * sizeof(double);
+
+  /// The diagonal block of free particle s that is its own, as assembled for ctx.dt():
+  /// m / dt^2 I, plus the contact stiffness k n n^T where the particle is within the contact
+  /// distance of an obstacle (then both as one stored block).
+  [[nodiscard]] Eigen::Matrix3d particle_block(const StepContext& ctx, std::int64_t s) const {
+    const std::int32_t c = contact_of_[s];
+    if (c < 0) return particle_inertia(ctx, s);
+    return contact_block(tile_contact_[tile_of(ctx.mesh, s)], c);
+  }
+  /// Particles with a contact block in the model as last assembled (tests, figures).
+  [[nodiscard]] std::int64_t contact_blocks() const;
   /// An element's axial or bending stiffness keeps at least this share of what the previous
   /// assembly gave it (0.2-0.5 measured alike; 0.9 makes slack regions too stiff to move).
   static constexpr double kStiffnessMemory = 0.3;
@@ -178,7 +194,7 @@ class ModelHessian {
   static constexpr double kReachChange = 1e-12;
 
  private:
-  /// Every thread; per particle: store the inertia block, call diagonal(s, full block).
+  /// Every thread; per particle: store the contact block if any, call diagonal(s, full block).
   template <class Diagonal>
   void assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal, bool reach,
                           double diagonal_written);
@@ -199,7 +215,29 @@ class ModelHessian {
     return block;
   }
 
-  std::vector<double> inertia_;  ///< 6 per slot: m / dt^2 I + contact k n n^T
+  static Eigen::Matrix3d particle_inertia(const StepContext& ctx, std::int64_t s) {
+    const double dt = ctx.dt();
+    return Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt));
+  }
+  /// Block c of a tile's contact blocks (6 values each: xx xy xz yy yz zz).
+  static Eigen::Matrix3d contact_block(const std::vector<double>& blocks, std::int32_t c) {
+    const double* p = blocks.data() + 6 * static_cast<std::size_t>(c);
+    Eigen::Matrix3d m;
+    m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
+    return m;
+  }
+  static std::int64_t tile_of(const ClothMesh& mesh, std::int64_t s) {
+    return std::upper_bound(mesh.tile_slot_begin.begin(), mesh.tile_slot_begin.end(), s) -
+           mesh.tile_slot_begin.begin() - 1;
+  }
+
+  /// The particles' own blocks are m / dt^2 I, computed where used, except for a particle in
+  /// contact: per slot the index of its block (inertia and contact together) among its tile's
+  /// contact blocks, -1 without contact. A tile's blocks are written by the one thread that
+  /// runs the tile (LoopRunner never splits a tile), so the assembly needs no lock, and only
+  /// the particles near an obstacle cost the 48 bytes of a block (4 bytes a slot otherwise).
+  std::vector<std::int32_t> contact_of_;
+  std::vector<std::vector<double>> tile_contact_;  ///< per tile: 6 per contact block
   std::vector<double> edge_;     ///< 2 per element id: alpha, beta
   std::vector<double> bending_;  ///< 1 per element id: c, across the turning vector
   std::vector<double> bending_along_;  ///< 1 per element id: c_along, along it
@@ -218,32 +256,42 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
                                       bool reach, double diagonal_written) {
   const ClothState& st = ctx.state;
   const double dt = ctx.dt();
-  // Flags, x, mass, p when reaching, the slot's elements read; the inertia block and what
-  // `diagonal` stores written.
+  // Flags, x, mass, p when reaching, the slot's elements read; the contact index (and the
+  // block of a particle in contact) and what `diagonal` stores written.
   const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kVector3 + bytes::kDouble +
                                          (reach ? bytes::kVector3 : 0.0) +
                                          bytes::kIdsPerSlot * kElementRead,
-                                 .written = bytes::kBlockD + diagonal_written};
+                                 .written = bytes::kIndex + diagonal_written};
   run.for_each_prepared(
       ElementKind::particles, particle_bytes,
       [&](std::int64_t tile) {
+        std::vector<double>& blocks = tile_contact_[static_cast<std::size_t>(tile)];
+        blocks.clear();
         // Reaching, the box covers x and x + p.
-        return ctx.broad_phase()
-                   ? ctx.tile_contacts(tile, st.position, reach ? &st.direction : nullptr).mask
-                   : kEveryObstacle;
+        const ObstacleMask mask =
+            ctx.broad_phase()
+                ? ctx.tile_contacts(tile, st.position, reach ? &st.direction : nullptr).mask
+                : kEveryObstacle;
+        return std::pair<ObstacleMask, std::vector<double>*>(mask, &blocks);
       },
-      [&](std::int64_t s, ObstacleMask mask) {
+      [&](std::int64_t s, const std::pair<ObstacleMask, std::vector<double>*>& tile) {
+        contact_of_[s] = -1;
         if (!ctx.is_free(s)) {
-          store_symmetric(inertia_, s, Eigen::Matrix3d::Zero());
           diagonal(s, Eigen::Matrix3d::Zero());
           return;
         }
         const Eigen::Vector3d x = vec3(st.position, s);
         const Eigen::Vector3d to = reach ? Eigen::Vector3d(x + vec3(st.direction, s)) : x;
-        const Eigen::Matrix3d own =
-            Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt)) +
-            contact_penalty(ctx, s, x, mask, reach ? &to : nullptr).stiffness;
-        store_symmetric(inertia_, s, own);
+        const Eigen::Matrix3d contact =
+            contact_penalty(ctx, s, x, tile.first, reach ? &to : nullptr).stiffness;
+        Eigen::Matrix3d own = Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt));
+        if ((contact.array() != 0.0).any()) {
+          own += contact;
+          std::vector<double>& blocks = *tile.second;
+          contact_of_[s] = static_cast<std::int32_t>(blocks.size() / 6);
+          blocks.insert(blocks.end(), {own(0, 0), own(0, 1), own(0, 2), own(1, 1), own(1, 2),
+                                       own(2, 2)});
+        }
         diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
       });
 }

@@ -15,13 +15,6 @@ namespace clothbench::kernels {
 
 namespace {
 
-Eigen::Matrix3d load_block(const std::vector<double>& in, std::int64_t s) {
-  const double* p = in.data() + 6 * s;
-  Eigen::Matrix3d m;
-  m << p[0], p[1], p[2], p[1], p[3], p[4], p[2], p[4], p[5];
-  return m;
-}
-
 /// (unknown, weight) pairs a node's value follows.
 void expand(const ClothMesh& mesh, const std::vector<std::int64_t>& unknown_of_slot,
             std::int64_t node, double weight, std::vector<std::pair<std::int64_t, double>>& out) {
@@ -183,7 +176,7 @@ void ModelHessian::for_each_unknown_block(const StepContext& ctx,
     return;
   }
   for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-    if (unknown_of_slot[s] >= 0) add(s, s, load_block(inertia_, s));
+    if (unknown_of_slot[s] >= 0) add(s, s, particle_block(ctx, s));
   }
   const std::int64_t ids = 2 * mesh.slot_count();
   Eigen::Matrix3d k;
@@ -227,7 +220,7 @@ void ModelHessian::sum_row(const StepContext& ctx, const std::vector<std::int64_
       }
     }
   };
-  add(1.0, s, load_block(inertia_, s));
+  add(1.0, s, particle_block(ctx, s));
   for_each_row_element(
       mesh, s, 1.0,
       [&](std::int64_t r, double wr, std::int64_t id) {

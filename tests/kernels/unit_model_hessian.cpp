@@ -3,7 +3,7 @@
 // of earlier stiffness; bending at least its secant from zero curvature (along the turning
 // vector only until the floor is released there); symmetric and positive
 // definite on random states with ghosts; its sparse matrix equal to the matrix-free product;
-// and contact stiffness wherever the last direction would make a contact.
+// and contact stiffness wherever the last direction would make a contact, stored only there.
 #include <gtest/gtest.h>
 
 #include <Eigen/SparseCore>
@@ -379,23 +379,35 @@ TEST(ModelHessian, SeesTheContactsTheLastDirectionWouldMake) {
     free.push_back(s);
     before.push_back(vertical(s));
   }
+  // Only a particle in contact has a block stored; every other one's is m / dt^2 I.
+  const kernels::ModelHessian& model = *f.objective.model_hessian();
+  EXPECT_EQ(model.contact_blocks(), 0);
   for (std::int64_t s : free) kernels::vec3(st.direction, s) = lower;
   f.assemble();
-  int touching = 0;
+  int touching = 0, in_contact = 0;
+  const double dt = f.ctx.dt();
   for (std::size_t k = 0; k < free.size(); ++k) {
     const std::int64_t s = free[k];
     double gained = 0.0;
+    bool contact = false;
     for (const kernels::Obstacle& o : f.sim.obstacles()) {
       Eigen::Vector3d n;
       if (o.signed_distance(kernels::vec3(st.position, s) + lower, n) < d) {
         gained += f.ctx.contact_stiffness(s) * n.z() * n.z();
         ++touching;
+        contact = true;
       }
     }
+    in_contact += contact ? 1 : 0;
     EXPECT_NEAR(vertical(s) - before[k], gained, 1e-9 * (before[k] + gained)) << "particle " << s;
+    const Eigen::Matrix3d own = model.particle_block(f.ctx, s);
+    const double inertia = mesh.mass[s] / (dt * dt);
+    EXPECT_NEAR(own(2, 2), inertia + gained, 1e-9 * (inertia + gained)) << "particle " << s;
+    if (!contact) EXPECT_EQ(own, Eigen::Matrix3d(Eigen::Matrix3d::Identity() * inertia));
   }
   EXPECT_GE(touching, 5);
   EXPECT_LT(touching, static_cast<int>(free.size()));
+  EXPECT_EQ(model.contact_blocks(), in_contact);
 }
 
 }  // namespace
