@@ -266,10 +266,10 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
   };
   // Flags, the mass and contact index, x, v, the slot's elements and its triples' q read; y
   // written (a contact block read besides for the few particles near an obstacle).
-  const LoopBytes particle_bytes{
-      .read = bytes::kFlag + bytes::kDouble + bytes::kIndex + 2 * bytes::kVector3 +
-              bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
-      .written = bytes::kVector3};
+  const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kDouble + bytes::kIndex +
+                                         2 * bytes::kVector3 +
+                                         bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
+                                 .written = bytes::kVector3};
   run.for_each_prepared<ScalarSum>(
       ElementKind::particles, &dot_partials_, particle_bytes,
       [&](std::int64_t tile, ScalarSum&) { return &tile_contact_[static_cast<std::size_t>(tile)]; },
@@ -317,10 +317,10 @@ void ModelHessian::forget_inactive(const ClothMesh& mesh) {
 }
 
 std::size_t ModelHessian::memory_bytes() const {
-  std::size_t b = (edge_.capacity() + bending_.capacity() + bending_along_.capacity()) *
-                      sizeof(double) +
-                  contact_of_.capacity() * sizeof(std::int32_t) +
-                  tile_contact_.capacity() * sizeof(std::vector<double>);
+  std::size_t b =
+      (edge_.capacity() + bending_.capacity() + bending_along_.capacity()) * sizeof(double) +
+      contact_of_.capacity() * sizeof(std::int32_t) +
+      tile_contact_.capacity() * sizeof(std::vector<double>);
   for (const std::vector<double>& blocks : tile_contact_) b += blocks.capacity() * sizeof(double);
   return b;
 }

@@ -42,8 +42,8 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <algorithm>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <utility>
@@ -66,8 +66,8 @@ class ModelHessian {
   static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble;
   /// What sum_row reads of its particle: the mass and contact index, the position, its slot's
   /// elements.
-  static constexpr double kRowRead = bytes::kDouble + bytes::kIndex + bytes::kVector3 +
-                                     bytes::kIdsPerSlot * kElementRead;
+  static constexpr double kRowRead =
+      bytes::kDouble + bytes::kIndex + bytes::kVector3 + bytes::kIdsPerSlot * kElementRead;
 
   explicit ModelHessian(const ClothMesh& mesh);
 
@@ -289,8 +289,8 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
           own += contact;
           std::vector<double>& blocks = *tile.second;
           contact_of_[s] = static_cast<std::int32_t>(blocks.size() / 6);
-          blocks.insert(blocks.end(), {own(0, 0), own(0, 1), own(0, 2), own(1, 1), own(1, 2),
-                                       own(2, 2)});
+          blocks.insert(blocks.end(),
+                        {own(0, 0), own(0, 1), own(0, 2), own(1, 1), own(1, 2), own(2, 2)});
         }
         diagonal(s, Eigen::Matrix3d(own + element_diagonal(ctx, s)));
       });
