@@ -88,6 +88,14 @@ void ActiveLists::rebuild(const ClothMesh& mesh, ListBuild build) {
   }
 }
 
+std::size_t ActiveLists::release_capacity_tails() {
+  std::size_t bytes = 0;
+  for (ElementList* l : {&particles, &edges, &triples, &ghosts}) {
+    bytes += release_capacity_tail(l->entries);
+  }
+  return bytes;
+}
+
 std::size_t ActiveLists::memory_bytes() const {
   std::size_t bytes = 0;
   for (const ElementList* l : {&particles, &edges, &triples, &ghosts}) {

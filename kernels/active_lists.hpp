@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kernels/cloth_mesh.hpp"
+#include "kernels/slot_pages.hpp"
 
 namespace clothbench::kernels {
 
@@ -35,6 +36,10 @@ struct ActiveLists {
   /// Rebuilds all lists from the mesh flags. Call from outside a parallel region; uses
   /// OpenMP internally when `build` is parallel_prefix_sum.
   void rebuild(const ClothMesh& mesh, ListBuild build = ListBuild::parallel_prefix_sum);
+  /// Hands back the pages of every list's capacity beyond its entries (slot_pages.hpp): the
+  /// lists keep the finest mesh's capacity, so a coarse mesh's lists would keep the pages
+  /// the finest one touched. Returns the bytes.
+  std::size_t release_capacity_tails();
   /// Bytes held by the lists.
   [[nodiscard]] std::size_t memory_bytes() const;
 };

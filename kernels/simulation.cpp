@@ -193,9 +193,10 @@ std::size_t Simulation::after_mesh_change() {
 
 std::size_t Simulation::release_unused_pages() {
   const SlotRuns runs = unused_slot_runs(mesh_);
-  // An unused slot's mass is 0 and stays 0 when its page comes back as zeros.
+  // An unused slot's mass is 0 and stays 0 when its page comes back as zeros. The lists (when
+  // built) were rebuilt for this mesh already.
   return state_.release_unused(runs) + objective_->release_unused(runs) +
-         release_slot_pages(mesh_.mass, 1, runs);
+         release_slot_pages(mesh_.mass, 1, runs) + lists_.release_capacity_tails();
 }
 
 void Simulation::lift_out_of_obstacles() {

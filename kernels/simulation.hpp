@@ -158,8 +158,9 @@ class Simulation {
   /// bit (tests compare the two).
   void set_release_unused_pages(bool on) { release_unused_pages_ = on; }
   /// Hands back now the pages of the slots that are neither particle nor ghost, of the arrays
-  /// that are not read there (ClothState::release_unused, the objective's, the masses); returns
-  /// the bytes. Done by adapt() and end_tree_edit() when the setting is on.
+  /// that are not read there (ClothState::release_unused, the objective's, the masses), and the
+  /// pages of the Active-Lists' capacity beyond their entries; returns the bytes. Done by
+  /// adapt() and end_tree_edit() when the setting is on.
   std::size_t release_unused_pages();
   /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
   double rebuild_lists();

@@ -33,4 +33,15 @@ std::size_t release_slot_pages(std::vector<T>& values, std::size_t per_slot, con
   return values.empty() ? 0 : release_slot_pages(values.data(), sizeof(T), per_slot, runs);
 }
 
+/// Hands back the whole pages of `values`' capacity beyond its size (a vector whose capacity
+/// is kept for the finest mesh, e.g. an Active-List, holds fewer entries on a coarser one).
+/// Growing it again writes its new elements, so nothing is lost. Returns the bytes.
+template <class T>
+std::size_t release_capacity_tail(std::vector<T>& values) {
+  if (values.capacity() == values.size()) return 0;
+  const SlotRuns tail{{static_cast<std::int64_t>(values.size()),
+                       static_cast<std::int64_t>(values.capacity())}};
+  return release_slot_pages(values.data(), sizeof(T), 1, tail);
+}
+
 }  // namespace clothbench::kernels
