@@ -355,7 +355,10 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
   // to the next along d) is the force of the old edge that covers it - the nearest recorded
   // edge start behind it on the same line, if its span reaches - and NaN where there was none
   // (inside an old coarse cell); likewise the triple field is NaN where no old triple was.
-  // Forces are per unit width, so merged elements take the mean and split ones inherit.
+  // Forces are per unit width, so merged elements take the mean and split ones inherit. An
+  // element that is not active on the new mesh keeps a force of zero (written only over a
+  // value that is not zero: its page, handed back while unused, stays with the system).
+  // Nothing reads it there; the state is then the same whether pages went back or not.
   const std::vector<double>& edge_forces = state.edge_scratch;
   const std::vector<double>& triple_moments = state.triple_scratch;
   const int size_i = mesh.size_i(), size_j = mesh.size_j();
@@ -403,6 +406,11 @@ void AdaptiveMesh::carry_forces(const ClothMesh& mesh, ClothState& state) const 
             }
           }
           state.edge_force[id] = count == 0 ? 0.0 : uniform ? first : sum / count;
+        } else if (state.edge_force[id] != 0.0) {
+          state.edge_force[id] = 0.0;  // an element that is gone keeps no force (see above)
+        }
+        if (!mesh.triple_active[id] && state.triple_moment[id] != 0.0) {
+          state.triple_moment[id] = 0.0;
         }
         if (mesh.triple_active[id]) {
           const double own = triple_field(id);

@@ -71,11 +71,14 @@ struct ClothState {
   }
   /// Hands back the pages of unused slots (slot_pages.hpp) of the arrays no loop reads at an
   /// unused slot: x^n, x~, the gradients, the direction, the block-Jacobi blocks, the bending
-  /// cache and the per-evaluation scratch (an AMRC event writes it only at the ids of active
-  /// elements, AdaptiveMesh::begin_change). Not position, edge_force and triple_moment (the
-  /// verified state, digested over every slot). Returns the bytes handed back.
+  /// cache, the per-evaluation scratch (an AMRC event writes it only at the ids of active
+  /// elements, AdaptiveMesh::begin_change), and the forces and moments (zero at every element
+  /// that is not active, AdaptiveMesh::carry_forces, so the state digested over every slot is
+  /// the same either way). Not position. Returns the bytes handed back.
   std::size_t release_unused(const SlotRuns& runs) {
     std::size_t b = release_slot_pages(preconditioner, 6, runs) +
+                    release_slot_pages(edge_force, 2, runs) +
+                    release_slot_pages(triple_moment, 2, runs) +
                     release_slot_pages(triple_offloading, 4, runs) +
                     release_slot_pages(edge_scratch, 2, runs) +
                     release_slot_pages(triple_scratch, 6, runs) +

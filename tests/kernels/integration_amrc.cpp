@@ -178,6 +178,8 @@ TEST(AmrcDrape, HandingBackUnusedSlotsPagesKeepsEveryBit) {
     std::int64_t remembered = 0;   ///< inactive triples with bending memory after an event
     std::int64_t marked = 0;       ///< NaN marks an event left in the scratch arrays
     std::int64_t misfiled = 0;     ///< Active-Lists that differ from the live elements
+    std::int64_t stale = 0;        ///< forces kept by elements an event took away
+    std::int64_t loaded = 0;       ///< forces that are not zero after an event
   };
   auto run = [](kernels::StepMethod method, bool release) {
     kernels::SimulationConfig c = box_scene();
@@ -214,6 +216,14 @@ TEST(AmrcDrape, HandingBackUnusedSlotsPagesKeepsEveryBit) {
       // stay with the system. Evaluations write finite values only.
       for (const std::vector<double>* v : {&st.edge_scratch, &st.triple_scratch}) {
         r.marked += std::count_if(v->begin(), v->end(), [](double x) { return std::isnan(x); });
+      }
+      // An element the event took away keeps no force: forces are handed back with the unused
+      // slots' pages, and the state must not depend on whether they were.
+      for (std::int64_t id = 0; id < 2 * sim.mesh().slot_count(); ++id) {
+        const auto k = static_cast<std::size_t>(id);
+        if (!sim.mesh().edge_active[k] && st.edge_force[k] != 0.0) ++r.stale;
+        if (!sim.mesh().triple_active[k] && st.triple_moment[k] != 0.0) ++r.stale;
+        if (st.edge_force[k] != 0.0 || st.triple_moment[k] != 0.0) ++r.loaded;
       }
       // The lists' pages beyond their entries go back too; a list that grows again into them
       // holds exactly the live elements.
@@ -254,6 +264,8 @@ TEST(AmrcDrape, HandingBackUnusedSlotsPagesKeepsEveryBit) {
     EXPECT_EQ(kept.marked, 0) << kernels::to_string(method);
     EXPECT_EQ(handed.marked, 0) << kernels::to_string(method);
     EXPECT_EQ(handed.misfiled, 0) << kernels::to_string(method);
+    EXPECT_EQ(kept.stale, 0) << kernels::to_string(method);
+    EXPECT_GT(kept.loaded, 0) << kernels::to_string(method) << ": no element carries a force";
     ASSERT_EQ(handed.out.size(), kept.out.size());
     EXPECT_EQ(std::memcmp(handed.out.data(), kept.out.data(), kept.out.size() * sizeof(double)), 0)
         << kernels::to_string(method);
