@@ -403,7 +403,9 @@ TEST(ModelHessian, SeesTheContactsTheLastDirectionWouldMake) {
     const Eigen::Matrix3d own = model.particle_block(f.ctx, s);
     const double inertia = mesh.mass[s] / (dt * dt);
     EXPECT_NEAR(own(2, 2), inertia + gained, 1e-9 * (inertia + gained)) << "particle " << s;
-    if (!contact) EXPECT_EQ(own, Eigen::Matrix3d(Eigen::Matrix3d::Identity() * inertia));
+    if (!contact) {
+      EXPECT_EQ(own, Eigen::Matrix3d(Eigen::Matrix3d::Identity() * inertia));
+    }
   }
   EXPECT_GE(touching, 5);
   EXPECT_LT(touching, static_cast<int>(free.size()));
