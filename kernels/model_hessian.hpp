@@ -255,7 +255,6 @@ template <class Diagonal>
 void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, Diagonal& diagonal,
                                       bool reach, double diagonal_written) {
   const ClothState& st = ctx.state;
-  const double dt = ctx.dt();
   // Flags, x, mass, p when reaching, the slot's elements read; the contact index (and the
   // block of a particle in contact) and what `diagonal` stores written.
   const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kVector3 + bytes::kDouble +
@@ -284,7 +283,7 @@ void ModelHessian::assemble_particles(LoopRunner& run, const StepContext& ctx, D
         const Eigen::Vector3d to = reach ? Eigen::Vector3d(x + vec3(st.direction, s)) : x;
         const Eigen::Matrix3d contact =
             contact_penalty(ctx, s, x, tile.first, reach ? &to : nullptr).stiffness;
-        Eigen::Matrix3d own = Eigen::Matrix3d::Identity() * (ctx.mesh.mass[s] / (dt * dt));
+        Eigen::Matrix3d own = particle_inertia(ctx, s);  // the expression apply() uses
         if ((contact.array() != 0.0).any()) {
           own += contact;
           std::vector<double>& blocks = *tile.second;
