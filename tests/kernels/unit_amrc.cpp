@@ -15,7 +15,6 @@
 #include "kernel_fixtures.hpp"
 #include "kernels/amrc.hpp"
 #include "kernels/simulation.hpp"
-#include "kernels/slot_pages.hpp"
 #include "schedulers/registry.hpp"
 #include "schedulers/static_driver.hpp"
 
@@ -179,28 +178,6 @@ MeshSnapshot snapshot(const kernels::Simulation& sim) {
     s.ghosts = lists->ghosts.entries;
   }
   return s;
-}
-
-TEST(Amrc, ListCapacityBeyondTheEntriesGoesBackAndGrowsAgain) {
-  // What an Active-List keeps of the finest mesh's capacity on a coarse mesh goes back to the
-  // system (slot_pages.hpp); the entries stay, and the vector grows again into fresh zeros.
-  std::vector<std::int32_t> entries;
-  entries.reserve(1 << 20);
-  entries.assign(1 << 20, 7);
-  entries.resize(1000);
-  const std::size_t released = kernels::release_capacity_tail(entries);
-#if defined(__linux__)
-  EXPECT_GE(released, (std::size_t{1} << 22) - 2 * 4096 - 4000);
-#endif
-  EXPECT_LE(released, (std::size_t{1} << 22) - 4000);
-  EXPECT_TRUE(std::all_of(entries.begin(), entries.end(), [](std::int32_t v) { return v == 7; }));
-  const std::int32_t* data = entries.data();
-  entries.resize(1 << 20);
-  EXPECT_EQ(entries.data(), data) << "the list did not move";
-  EXPECT_EQ(std::count(entries.begin(), entries.end(), 7), 1000);
-  EXPECT_EQ(std::count(entries.begin(), entries.end(), 0), (1 << 20) - 1000);
-  entries.resize(entries.capacity());
-  EXPECT_EQ(kernels::release_capacity_tail(entries), 0u) << "no capacity beyond the entries";
 }
 
 TEST(Amrc, TreeOfTheFinestMeshGivesTheUniformMesh) {
