@@ -9,7 +9,9 @@
 //
 // Storage: the lower band, half-bandwidth w, row-major rows of w + 1 entries, entry (r, c) for
 // r - w <= c <= r at r * (w + 1) + c - r + w; the factor L overwrites it with 1 / L(r, r) in
-// place of each pivot L(r, r), so the solves multiply where they would divide.
+// place of each pivot L(r, r), so the solves multiply where they would divide. The factor is
+// computed in double; the solves read it as double or as float (the V-cycle keeps its line
+// factors rounded to float) and compute in double either way.
 #pragma once
 
 #include <algorithm>
@@ -51,7 +53,8 @@ CLOTHBENCH_SCALAR_LOOPS inline bool cholesky(double* band, std::int64_t n, int w
 }
 
 /// One row of the forward substitution L y = b: x[r] from the rows before it.
-CLOTHBENCH_SCALAR_LOOPS inline void forward_row(const double* band, std::int64_t r, int w,
+template <class Factor>
+CLOTHBENCH_SCALAR_LOOPS inline void forward_row(const Factor* band, std::int64_t r, int w,
                                                 double* x) {
   const std::int64_t row = w + 1;
   double sum = x[r];
@@ -63,24 +66,27 @@ CLOTHBENCH_SCALAR_LOOPS inline void forward_row(const double* band, std::int64_t
 /// One row of the back substitution L^T x = y, by columns of L^T, i.e. along the rows of L as
 /// they are stored: once x[r] is known, it leaves the rows above it (the factor is read in the
 /// order the forward pass read it, not across rows).
-CLOTHBENCH_SCALAR_LOOPS inline void backward_row(const double* band, std::int64_t r, int w,
+template <class Factor>
+CLOTHBENCH_SCALAR_LOOPS inline void backward_row(const Factor* band, std::int64_t r, int w,
                                                  double* x) {
   const std::int64_t row = w + 1;
   const double xr = x[r] * band[r * row + w];
   x[r] = xr;
-  const double* lr = band + r * row + w - r;  // lr[k] = L(r, k)
+  const Factor* lr = band + r * row + w - r;  // lr[k] = L(r, k)
   for (std::int64_t k = std::max<std::int64_t>(0, r - w); k < r; ++k) x[k] -= lr[k] * xr;
 }
 
 /// Solves L L^T x = b in place with the factor of cholesky.
-CLOTHBENCH_SCALAR_LOOPS inline void solve(const double* band, std::int64_t n, int w, double* x) {
+template <class Factor>
+CLOTHBENCH_SCALAR_LOOPS inline void solve(const Factor* band, std::int64_t n, int w, double* x) {
   for (std::int64_t r = 0; r < n; ++r) forward_row(band, r, w, x);
   for (std::int64_t r = n - 1; r >= 0; --r) backward_row(band, r, w, x);
 }
 
 /// solve for two independent lines, rows interleaved.
-CLOTHBENCH_SCALAR_LOOPS inline void solve_pair(const double* band_a, std::int64_t n_a, int w_a,
-                                               double* x_a, const double* band_b, std::int64_t n_b,
+template <class Factor>
+CLOTHBENCH_SCALAR_LOOPS inline void solve_pair(const Factor* band_a, std::int64_t n_a, int w_a,
+                                               double* x_a, const Factor* band_b, std::int64_t n_b,
                                                int w_b, double* x_b) {
   const std::int64_t both = std::min(n_a, n_b);
   for (std::int64_t r = 0; r < both; ++r) {

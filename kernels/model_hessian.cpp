@@ -51,9 +51,9 @@ ModelHessian::ModelHessian(const ClothMesh& mesh) : dot_partials_(mesh.tile_coun
   const auto slots = static_cast<std::size_t>(mesh.slot_count());
   contact_of_.assign(slots, -1);
   tile_contact_.resize(static_cast<std::size_t>(mesh.tile_count()));
-  edge_.assign(4 * slots, 0.0);
-  bending_.assign(2 * slots, 0.0);
-  bending_along_.assign(2 * slots, 0.0);
+  edge_.assign(4 * slots, 0.0f);
+  bending_.assign(2 * slots, 0.0f);
+  bending_along_.assign(2 * slots, 0.0f);
 }
 
 void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bool new_step,
@@ -71,8 +71,8 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
   // Per element: the term's reads and the previous stiffness, p's share when reaching; the
   // stiffness written.
   const double reach_read = reach ? bytes::kSlotShare * bytes::kVector3 : 0.0;
-  const LoopBytes edge_bytes{.read = kEdgeTermRead + bytes::kDouble + reach_read,
-                             .written = 2 * bytes::kDouble};
+  const LoopBytes edge_bytes{.read = kEdgeTermRead + bytes::kFloat + reach_read,
+                             .written = 2 * bytes::kFloat};
   run.for_each(ElementKind::edges, edge_bytes, [&](std::int64_t id) {
     const EdgeTerm e = edge_term(ctx, id, x);
     const double w = mesh.edge_width[id];
@@ -84,14 +84,15 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
     }
     double alpha = w * slope / mesh.edge_rest[id];
     alpha = std::max(alpha, kStiffnessMemory * edge_[2 * id]);
-    edge_[2 * id] = alpha;
-    edge_[2 * id + 1] = e.length > 0.0 ? w * std::max(e.force, 0.0) / e.length : 0.0;
+    edge_[2 * id] = static_cast<float>(alpha);
+    edge_[2 * id + 1] =
+        static_cast<float>(e.length > 0.0 ? w * std::max(e.force, 0.0) / e.length : 0.0);
   });
   const double zero_slopes[2] = {
       ctx.material.bending[0].curves(std::numeric_limits<double>::min()).upper_slope,
       ctx.material.bending[1].curves(std::numeric_limits<double>::min()).upper_slope};
-  const LoopBytes triple_bytes{.read = kTripleTermRead + 2 * bytes::kDouble + reach_read,
-                               .written = 2 * bytes::kDouble};
+  const LoopBytes triple_bytes{.read = kTripleTermRead + 2 * bytes::kFloat + reach_read,
+                               .written = 2 * bytes::kFloat};
   run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     // The band's slope on the branch the return mapping takes at the current curvature: zero
     // on the plateau (a straight triple with no previous moment lies on it). A straight triple
@@ -124,14 +125,14 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
     }
     double c = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
     c = std::max(c, kStiffnessMemory * bending_[id]);
-    bending_[id] = c;
+    bending_[id] = static_cast<float>(c);
     double c_along = c;
     if (!floor_along) {
       c_along = std::max(mesh.triple_width[id] * std::max(along, 0.0) / mesh.triple_rest[id],
                          kStiffnessMemory * bending_along_[id]);
       c_along = std::min(c_along, c);
     }
-    bending_along_[id] = c_along;
+    bending_along_[id] = static_cast<float>(c_along);
   });
 }
 
@@ -184,7 +185,8 @@ Eigen::Matrix3d ModelHessian::element_diagonal(const StepContext& ctx, std::int6
 
 Eigen::Matrix3d ModelHessian::edge_block(const StepContext& ctx, std::int64_t id) const {
   const ClothState& st = ctx.state;
-  const Eigen::Vector3d e = vec3(st.position, ctx.mesh.next[id]) - vec3(st.position, element_slot(id));
+  const Eigen::Vector3d e =
+      vec3(st.position, ctx.mesh.next[id]) - vec3(st.position, element_slot(id));
   const double l = e.norm();
   if (!(l > 0.0)) return Eigen::Matrix3d::Zero();
   const Eigen::Vector3d u = e / l;
@@ -203,7 +205,7 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
   // C = c (I - k k^T) + c_along k k^T, 3 per id. c, c_along, prev, next and the shares of x and
   // v read; q written.
   const LoopBytes triple_bytes{
-      .read = 2 * bytes::kDouble + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
+      .read = 2 * bytes::kFloat + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
       .written = bytes::kVector3};
   run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
     auto q = vec3(st.triple_scratch, id);
@@ -294,11 +296,11 @@ void ModelHessian::forget_inactive(const ClothMesh& mesh) {
 #pragma omp parallel for schedule(static)
   for (std::int64_t id = 0; id < ids; ++id) {
     if (!mesh.edge_active[id] && (edge_[2 * id] != 0.0 || edge_[2 * id + 1] != 0.0)) {
-      edge_[2 * id] = edge_[2 * id + 1] = 0.0;
+      edge_[2 * id] = edge_[2 * id + 1] = 0.0f;
     }
     if (!mesh.triple_active[id]) {
-      if (bending_[id] != 0.0) bending_[id] = 0.0;
-      if (bending_along_[id] != 0.0) bending_along_[id] = 0.0;
+      if (bending_[id] != 0.0f) bending_[id] = 0.0f;
+      if (bending_along_[id] != 0.0f) bending_along_[id] = 0.0f;
     }
   }
   // A tile left without particles keeps no contact blocks (no slot of it reads them).
@@ -318,7 +320,7 @@ void ModelHessian::forget_inactive(const ClothMesh& mesh) {
 
 std::size_t ModelHessian::memory_bytes() const {
   std::size_t b =
-      (edge_.capacity() + bending_.capacity() + bending_along_.capacity()) * sizeof(double) +
+      (edge_.capacity() + bending_.capacity() + bending_along_.capacity()) * sizeof(float) +
       contact_of_.capacity() * sizeof(std::int32_t) +
       tile_contact_.capacity() * sizeof(std::vector<double>);
   for (const std::vector<double>& blocks : tile_contact_) b += blocks.capacity() * sizeof(double);

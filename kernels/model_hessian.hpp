@@ -62,8 +62,9 @@ std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* co
 class ModelHessian {
  public:
   /// What a particle loop over the model reads per element id of its slot (loop_bytes.hpp):
-  /// next, prev, both element flags, the edge's alpha and beta, the triple's two coefficients.
-  static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kDouble;
+  /// next, prev, both element flags, the edge's alpha and beta, the triple's two coefficients
+  /// (floats).
+  static constexpr double kElementRead = 2 * bytes::kIndex + 2 * bytes::kFlag + 4 * bytes::kFloat;
   /// What sum_row reads of its particle: the mass and contact index, the position, its slot's
   /// elements.
   static constexpr double kRowRead =
@@ -115,9 +116,9 @@ class ModelHessian {
   /// Drops the stiffness the next assembly would remember (kStiffnessMemory): it then starts
   /// from the tangent and the secant alone. Sequential; outside a parallel region.
   void forget() {
-    std::fill(edge_.begin(), edge_.end(), 0.0);
-    std::fill(bending_.begin(), bending_.end(), 0.0);
-    std::fill(bending_along_.begin(), bending_along_.end(), 0.0);
+    std::fill(edge_.begin(), edge_.end(), 0.0f);
+    std::fill(bending_.begin(), bending_.end(), 0.0f);
+    std::fill(bending_along_.begin(), bending_along_.end(), 0.0f);
   }
 
   /// Row of free particle s of matrix(), summed on its own: its inertia and contact, then for
@@ -127,8 +128,7 @@ class ModelHessian {
   /// The sums run in an order of their own (not matrix()'s), the same at every thread count:
   /// the V-cycle's level 0 by rows in parallel.
   void sum_row(const StepContext& ctx, const std::vector<std::int64_t>& unknown_of_slot,
-               std::int64_t s, const std::int64_t* cols, std::int64_t count,
-               double* values) const;
+               std::int64_t s, const std::int64_t* cols, std::int64_t count, double* values) const;
 
   /// The columns of free particle s's row in every model on this mesh whose triples with
   /// bending stiffness are this one's: for_each_unknown_block's `structure` pattern by rows
@@ -207,8 +207,9 @@ class ModelHessian {
   [[nodiscard]] Eigen::Matrix3d bending_block(std::int64_t id, const Eigen::Matrix3d& jr,
                                               const Eigen::Matrix3d& jq,
                                               const Eigen::Vector3d* k) const {
-    Eigen::Matrix3d block = bending_[id] * jr * jq;
-    const double anisotropy = bending_along_[id] - bending_[id];
+    const double c = bending_[id];
+    Eigen::Matrix3d block = c * jr * jq;
+    const double anisotropy = static_cast<double>(bending_along_[id]) - c;
     if (k != nullptr && anisotropy != 0.0) {
       block += anisotropy * (jr * *k) * (jq * *k).transpose();
     }
@@ -238,9 +239,12 @@ class ModelHessian {
   /// the particles near an obstacle cost the 48 bytes of a block (4 bytes a slot otherwise).
   std::vector<std::int32_t> contact_of_;
   std::vector<std::vector<double>> tile_contact_;  ///< per tile: 6 per contact block
-  std::vector<double> edge_;     ///< 2 per element id: alpha, beta
-  std::vector<double> bending_;  ///< 1 per element id: c, across the turning vector
-  std::vector<double> bending_along_;  ///< 1 per element id: c_along, along it
+  /// The elements' stiffness coefficients, each computed in double and stored once rounded
+  /// to float (12 instead of 24 bytes an element id; every reader, apply() and the matrix
+  /// alike, reads the same rounded value, so the model stays one symmetric operator).
+  std::vector<float> edge_;           ///< 2 per element id: alpha, beta
+  std::vector<float> bending_;        ///< 1 per element id: c, across the turning vector
+  std::vector<float> bending_along_;  ///< 1 per element id: c_along, along it
   TilePartials<ScalarSum> dot_partials_;
 };
 

@@ -103,7 +103,7 @@ void VcyclePreconditioner::colour_lines(Level& level, int d) {
     l.band_start[line + 1] =
         l.band_start[line] + 3 * (l.start[line + 1] - l.start[line]) * (l.width[line] + 1);
   }
-  l.band.assign(static_cast<std::size_t>(l.band_start.back()), 0.0);
+  l.band.assign(static_cast<std::size_t>(l.band_start.back()), 0.0f);
   l.ok.assign(static_cast<std::size_t>(lines), 0);
 }
 
@@ -111,9 +111,11 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
                                                                std::int64_t line) {
   Lines& l = level.lines[d];
   const int w = l.width[line];
-  double* band = l.band.data() + l.band_start[line];
   const std::int64_t rows = 3 * (l.start[line + 1] - l.start[line]);
-  std::fill(band, band + rows * (w + 1), 0.0);
+  // The band assembled and factored in double, then stored rounded to float.
+  thread_local std::vector<double> work;
+  work.assign(static_cast<std::size_t>(rows * (w + 1)), 0.0);
+  double* band = work.data();
   const std::int64_t last = l.start[line + 1];
   for (std::int64_t e = l.start[line]; e < last; ++e) {
     if (e + kPrefetchAhead < last) prefetch_row(level.a, l.order[e + kPrefetchAhead]);
@@ -124,7 +126,7 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
       if (l.line_of[b] != line) continue;
       const std::int64_t pb = l.position[b];
       if (pb > pa) continue;
-      const double* block = level.a.value.data() + 9 * blk;
+      const float* block = level.a.value.data() + 9 * blk;
       for (int r = 0; r < 3; ++r) {
         const std::int64_t lr = 3 * pa + r;
         for (int c = 0; c < 3; ++c) {
@@ -135,6 +137,8 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
     }
   }
   l.ok[line] = band::cholesky(band, rows, w) ? 1 : 0;
+  std::transform(work.begin(), work.end(), l.band.begin() + l.band_start[line],
+                 [](double v) { return static_cast<float>(v); });
 }
 
 }  // namespace clothbench::kernels

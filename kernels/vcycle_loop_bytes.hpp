@@ -13,6 +13,13 @@ namespace clothbench::kernels::vcycle_bytes {
 /// An index array entry of the V-cycle (std::int64_t).
 inline constexpr double kOffset = 8.0;
 
+/// Bytes of one stored entry of a vector (an operator's values are floats, the line factors
+/// doubles: vcycle_preconditioner.hpp).
+template <class Vector>
+constexpr double entry_bytes(const Vector&) {
+  return static_cast<double>(sizeof(typename Vector::value_type));
+}
+
 /// `total` bytes over `count` indices (0 for an empty loop).
 inline double per_index(double total, std::size_t count) {
   return count == 0 ? 0.0 : total / static_cast<double>(count);
@@ -22,7 +29,7 @@ inline double per_index(double total, std::size_t count) {
 template <class BlockRows>
 double operator_read(const BlockRows& a) {
   return kOffset * static_cast<double>(a.start.size()) +
-         (kOffset + 9 * bytes::kDouble) * static_cast<double>(a.col.size());
+         (kOffset + 9 * entry_bytes(a.value)) * static_cast<double>(a.col.size());
 }
 
 /// Reading a transfer's weights once: row starts and, per entry, its node and weight.
@@ -56,7 +63,7 @@ LoopBytes line_sweep(const Level& level, int d, int per) {
   const auto& l = level.lines[d];
   const auto nodes = static_cast<double>(l.order.size());
   const double read = operator_read(level.a) + nodes * (kOffset + 2 * bytes::kVector3) +
-                      bytes::kDouble * static_cast<double>(l.band.size()) +
+                      entry_bytes(l.band) * static_cast<double>(l.band.size()) +
                       (3 * kOffset + bytes::kFlag) * static_cast<double>(l.width.size());
   const std::size_t lines = l.width.size();
   return {.read = per * per_index(read, lines),
@@ -73,7 +80,7 @@ LoopBytes line_factor(const Level& level, int d) {
   const double read =
       operator_read(level.a) + 2 * kOffset * static_cast<double>(level.a.col.size()) +
       2 * kOffset * static_cast<double>(l.order.size()) + 3 * kOffset * static_cast<double>(lines);
-  const double written = bytes::kDouble * static_cast<double>(l.band.size()) +
+  const double written = entry_bytes(l.band) * static_cast<double>(l.band.size()) +
                          bytes::kFlag * static_cast<double>(lines);
   return {.read = per_index(read, lines), .written = per_index(written, lines)};
 }
@@ -101,7 +108,7 @@ LoopBytes galerkin(const Level& fine, const Level& coarse, bool values) {
   const std::size_t rows = coarse.i.size();
   const double read = operator_read(fine.a) + weights_read(fine.r) + weights_read(fine.p);
   const double written =
-      values ? 9 * bytes::kDouble * static_cast<double>(coarse.a.col.size()) : 0.0;
+      values ? 9 * entry_bytes(coarse.a.value) * static_cast<double>(coarse.a.col.size()) : 0.0;
   return {.read = per_index(read, rows), .written = per_index(written, rows)};
 }
 

@@ -17,12 +17,12 @@ namespace {
 
 /// out[0..2] = b - (A x) for node a's row of 3x3 blocks.
 CLOTHBENCH_SCALAR_LOOPS inline void block_residual(const std::int64_t* start,
-                                                   const std::int64_t* col, const double* value,
+                                                   const std::int64_t* col, const float* value,
                                                    std::int64_t a, const double* x, const double* b,
                                                    double* out) {
   double r0 = b[3 * a], r1 = b[3 * a + 1], r2 = b[3 * a + 2];
   for (std::int64_t blk = start[a]; blk < start[a + 1]; ++blk) {
-    const double* m = value + 9 * blk;
+    const float* m = value + 9 * blk;
     const double* xb = x + 3 * col[blk];
     r0 -= m[0] * xb[0] + m[1] * xb[1] + m[2] * xb[2];
     r1 -= m[3] * xb[0] + m[4] * xb[1] + m[5] * xb[2];

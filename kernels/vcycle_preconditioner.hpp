@@ -124,7 +124,7 @@ class VcyclePreconditioner {
   [[nodiscard]] std::int64_t failures() const { return failures_; }
 
   [[nodiscard]] std::size_t memory_bytes() const;
-  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 72 B + 8 B index, and
+  /// Bytes per slot (memory estimates): level 0's blocks (9 a row of 36 B + 8 B index, and
   /// its pattern while it is made), the line factors (two directions, 3 rows of 9 band
   /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
   /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
@@ -132,15 +132,19 @@ class VcyclePreconditioner {
   /// Plus, a slot of the mesh, the structure's topology key, the unknown and the coarsening's
   /// node of every slot, and two bending bytes for each of its two element ids.
   static constexpr std::size_t kBytesPerSlot =
-      (9 * 80 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 +
+      (9 * 44 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 +
       TopologyKey::kBytesPerSlot + 8 + 4 + 2 * 2;
 
  private:
   /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
+  /// The blocks' entries are summed in double and stored rounded to float (each once): the
+  /// cycle computes in double from them, so it is the symmetric V-cycle of the rounded
+  /// operators, and a level's values take half the bytes (kernels/MODEL-NOTES.md, V-cycle,
+  /// "Operators stored in single precision").
   struct BlockRows {
     std::vector<std::int64_t> start;  ///< per row: first block (+ end)
     std::vector<std::int64_t> col;    ///< per block: its column node
-    std::vector<double> value;        ///< per block: 9 entries, row-major
+    std::vector<float> value;         ///< per block: 9 entries, row-major
   };
   /// Interpolation weights by node: per row the (node, weight) pairs it follows.
   struct Weights {
@@ -158,9 +162,11 @@ class VcyclePreconditioner {
     std::vector<std::int64_t> band_start;    ///< per line: offset into `band` (+ end)
     std::vector<int> width;                  ///< per line: scalar half-bandwidth
     std::vector<std::uint8_t> ok;            ///< per line: factorisation succeeded
-    std::vector<double> band;                ///< lower band of each line's Cholesky factor
-    std::vector<std::int64_t> line_of;       ///< per node: its line
-    std::vector<std::int64_t> position;      ///< per node: its position on the line
+    /// Lower band of each line's Cholesky factor, computed in double and stored rounded to
+    /// float: the line solve L L^T of the rounded factor is still symmetric positive definite.
+    std::vector<float> band;
+    std::vector<std::int64_t> line_of;   ///< per node: its line
+    std::vector<std::int64_t> position;  ///< per node: its position on the line
     /// While a structure is made: per line, the lines before it that it couples to.
     std::vector<std::vector<std::int64_t>> below;
   };
@@ -278,17 +284,17 @@ class VcyclePreconditioner {
   /// An empty level: the next spare one (level k of the last structure when level k is
   /// made), or a new one.
   Level take_level();
-  std::vector<std::int64_t> slot_of_node_;           ///< level 0 node -> slot
-  std::vector<std::int64_t> unknown_;                ///< slot -> level 0 node, or -1
-  std::vector<std::int32_t> node_at_;  ///< per grid point: coarsen()'s node there, -1 between
-  TopologyKey topology_;                             ///< the mesh the structure was made for,
+  std::vector<std::int64_t> slot_of_node_;  ///< level 0 node -> slot
+  std::vector<std::int64_t> unknown_;       ///< slot -> level 0 node, or -1
+  std::vector<std::int32_t> node_at_;       ///< per grid point: coarsen()'s node there, -1 between
+  TopologyKey topology_;                    ///< the mesh the structure was made for,
   std::vector<std::uint8_t> bending_, bending_now_;  ///< its triples with bending stiffness
   std::int64_t structure_coarsest_ = -1;             ///< and its coarsest size
   bool new_structure_ = false;                       ///< written in factor()'s check, read after it
-  std::vector<std::uint8_t> changed_;  ///< per check block: the structure differs there
-  bool comparable_ = false;            ///< a structure of this extent and coarsest size exists
-  std::size_t widest_ = 0;      ///< nodes of the largest coarse level (accumulators)
-  std::vector<Accumulator> accumulators_;            ///< one per thread
+  std::vector<std::uint8_t> changed_;      ///< per check block: the structure differs there
+  bool comparable_ = false;                ///< a structure of this extent and coarsest size exists
+  std::size_t widest_ = 0;                 ///< nodes of the largest coarse level (accumulators)
+  std::vector<Accumulator> accumulators_;  ///< one per thread
   std::vector<std::vector<std::int64_t>> row_cols_;  ///< Galerkin columns before concatenation
   /// Level 0's pattern while it is made: per thread the columns of the rows it made, per row
   /// where they are.

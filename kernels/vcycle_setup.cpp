@@ -164,7 +164,7 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
     const double wi = fine.r.weight[e];
     for (std::int64_t blk = a.start[i]; blk < a.start[i + 1]; ++blk) {
       const std::int64_t j = a.col[blk];
-      const double* block = a.value.data() + 9 * blk;
+      const float* block = a.value.data() + 9 * blk;
       for (std::int64_t f = fine.p.start[j]; f < fine.p.start[j + 1]; ++f) {
         const std::int64_t c = fine.p.node[f];
         std::int64_t at = acc.slot_of[c];
@@ -193,9 +193,10 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
   } else {
     // The same products in the same order as when the pattern was made: only the values.
     BlockRows& coarse = levels_[k + 1].a;
-    double* values = coarse.value.data() + 9 * coarse.start[row];
+    float* values = coarse.value.data() + 9 * coarse.start[row];
     for (std::size_t e = 0; e < count; ++e) {
-      std::copy_n(acc.values.data() + 9 * acc.order[e], 9, values + 9 * e);
+      const double* sum = acc.values.data() + 9 * acc.order[e];
+      for (int q = 0; q < 9; ++q) values[9 * e + q] = static_cast<float>(sum[q]);
     }
   }
   for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
@@ -281,7 +282,7 @@ void VcyclePreconditioner::size_accumulators() {
 
 void VcyclePreconditioner::finish_structure(const StepContext& ctx) {
   const ClothMesh& mesh = ctx.mesh;
-  levels_.front().a.value.assign(9 * levels_.front().a.col.size(), 0.0);
+  levels_.front().a.value.assign(9 * levels_.front().a.col.size(), 0.0f);
   // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
   // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
   // tried from the same level.
@@ -377,10 +378,16 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
     const LoopBytes row_bytes{
         .read = 2 * vcycle_bytes::kOffset + ModelHessian::kRowRead +
                 vcycle_bytes::per_index(vcycle_bytes::kOffset * blocks, rows),
-        .written = vcycle_bytes::per_index(9 * bytes::kDouble * blocks, rows)};
+        .written = vcycle_bytes::per_index(9 * vcycle_bytes::entry_bytes(a.value) * blocks, rows)};
     run.for_index(static_cast<std::int64_t>(rows), row_bytes, [&](std::int64_t row) {
-      hessian.sum_row(ctx, unknown_, slot_of_node_[row], a.col.data() + a.start[row],
-                      a.start[row + 1] - a.start[row], a.value.data() + 9 * a.start[row]);
+      // Summed in double, stored rounded to float.
+      thread_local std::vector<double> sums;
+      const std::int64_t count = a.start[row + 1] - a.start[row];
+      sums.resize(static_cast<std::size_t>(9 * count));
+      hessian.sum_row(ctx, unknown_, slot_of_node_[row], a.col.data() + a.start[row], count,
+                      sums.data());
+      float* values = a.value.data() + 9 * a.start[row];
+      for (std::int64_t q = 0; q < 9 * count; ++q) values[q] = static_cast<float>(sums[q]);
     });
   }
   // The Galerkin products level by level, each coarse row on its own.
