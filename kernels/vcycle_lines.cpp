@@ -137,8 +137,7 @@ CLOTHBENCH_SCALAR_LOOPS void VcyclePreconditioner::factor_line(Level& level, int
     }
   }
   l.ok[line] = band::cholesky(band, rows, w) ? 1 : 0;
-  std::transform(work.begin(), work.end(), l.band.begin() + l.band_start[line],
-                 [](double v) { return static_cast<float>(v); });
+  store_rounded(work.data(), rows * (w + 1), l.band.data() + l.band_start[line]);
 }
 
 }  // namespace clothbench::kernels

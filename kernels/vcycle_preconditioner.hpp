@@ -226,6 +226,11 @@ class VcyclePreconditioner {
   /// the out-of-order window to reach the next node's loads (kernels/MODEL-NOTES.md, "V-cycle",
   /// "Prefetching").
   static constexpr std::int64_t kPrefetchAhead = 2;
+  /// Stores `count` entries summed in double as the float the levels keep (the one rounding of
+  /// an operator entry or a line factor's entry).
+  static void store_rounded(const double* sums, std::int64_t count, float* stored) {
+    for (std::int64_t q = 0; q < count; ++q) stored[q] = static_cast<float>(sums[q]);
+  }
   /// Asks the cache for the blocks of row `node` of `a` (no effect on results; prefetching its
   /// columns as well measured slower).
   static void prefetch_row(const BlockRows& a, std::int64_t node) {

@@ -195,8 +195,7 @@ void VcyclePreconditioner::galerkin_row(std::size_t k, std::int64_t row, Accumul
     BlockRows& coarse = levels_[k + 1].a;
     float* values = coarse.value.data() + 9 * coarse.start[row];
     for (std::size_t e = 0; e < count; ++e) {
-      const double* sum = acc.values.data() + 9 * acc.order[e];
-      for (int q = 0; q < 9; ++q) values[9 * e + q] = static_cast<float>(sum[q]);
+      store_rounded(acc.values.data() + 9 * acc.order[e], 9, values + 9 * e);
     }
   }
   for (const std::int64_t c : acc.cols) acc.slot_of[c] = -1;
@@ -386,8 +385,7 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
       sums.resize(static_cast<std::size_t>(9 * count));
       hessian.sum_row(ctx, unknown_, slot_of_node_[row], a.col.data() + a.start[row], count,
                       sums.data());
-      float* values = a.value.data() + 9 * a.start[row];
-      for (std::int64_t q = 0; q < 9 * count; ++q) values[q] = static_cast<float>(sums[q]);
+      store_rounded(sums.data(), 9 * count, a.value.data() + 9 * a.start[row]);
     });
   }
   // The Galerkin products level by level, each coarse row on its own.
