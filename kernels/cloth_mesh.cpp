@@ -18,9 +18,6 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
   }
   const std::int64_t n = static_cast<std::int64_t>(size_i_) * size_j_;
   if (n > INT32_MAX / 2) throw std::invalid_argument("ClothMesh: too many particles");
-  slot_of_grid.resize(static_cast<std::size_t>(n));
-  grid_i_.resize(static_cast<std::size_t>(n));
-  grid_j_.resize(static_cast<std::size_t>(n));
 
   // Blocks in row-major block order; inside a block, particles row by row (one tile per row).
   const int blocks_i = (size_i_ + block_size_ - 1) / block_size_;
@@ -33,13 +30,7 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
       const int j0 = bj * block_size_, j1 = std::min(size_j_, j0 + block_size_);
       for (int i = i0; i < i1; ++i) {
         tile_slot_begin.push_back(next_slot);
-        for (int j = j0; j < j1; ++j) {
-          slot_of_grid[static_cast<std::size_t>(i) * size_j_ + j] =
-              static_cast<std::int32_t>(next_slot);
-          grid_i_[next_slot] = i;
-          grid_j_[next_slot] = j;
-          ++next_slot;
-        }
+        next_slot += j1 - j0;  // slot(i, j) = the tile's first slot + j - j0
       }
       block_tile_begin.push_back(static_cast<std::int64_t>(tile_slot_begin.size()));
     }
@@ -80,11 +71,11 @@ void ClothMesh::update_reference_geometry() {
     double extent = 0.0;
     const std::int64_t id = element_id(s, d);
     if (next[id] >= 0) {
-      const int span = d == 0 ? grid_i_[next[id]] - grid_i_[s] : grid_j_[next[id]] - grid_j_[s];
+      const int span = d == 0 ? grid_i(next[id]) - grid_i(s) : grid_j(next[id]) - grid_j(s);
       extent += 0.5 * span * spacing_[d];
     }
     if (prev[id] >= 0) {
-      const int span = d == 0 ? grid_i_[s] - grid_i_[prev[id]] : grid_j_[s] - grid_j_[prev[id]];
+      const int span = d == 0 ? grid_i(s) - grid_i(prev[id]) : grid_j(s) - grid_j(prev[id]);
       extent += 0.5 * span * spacing_[d];
     }
     return extent;
@@ -99,7 +90,7 @@ void ClothMesh::update_reference_geometry() {
       const bool has_next = node && next[id] >= 0;
       edge_active[id] = has_next ? 1 : 0;
       if (has_next) {
-        const int span = d == 0 ? grid_i_[next[id]] - grid_i_[s] : grid_j_[next[id]] - grid_j_[s];
+        const int span = d == 0 ? grid_i(next[id]) - grid_i(s) : grid_j(next[id]) - grid_j(s);
         edge_rest[id] = static_cast<float>(span * spacing_[d]);
         edge_width[id] = static_cast<float>(half_extent(s, other));
       }

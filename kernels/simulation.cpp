@@ -439,7 +439,7 @@ Simulation::VcycleWork Simulation::vcycle_work() const {
 std::size_t Simulation::memory_bytes() const {
   std::size_t b = state_.memory_bytes() + lists_.memory_bytes() + objective_->memory_bytes();
   if (amrc_) b += amrc_->memory_bytes();
-  b += mesh_.slot_of_grid.capacity() * 4 + mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
+  b += mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
   b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
   b += mesh_.edge_active.capacity() + mesh_.triple_active.capacity();
   b += (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity() + mesh_.triple_rest.capacity() +
@@ -451,11 +451,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   const auto n = static_cast<std::size_t>(config.cloth.particles_i) *
                  static_cast<std::size_t>(config.cloth.particles_j);
   // Per slot: state 7 vectors x 24 B + 24 B preconditioner + 8 B contact; per element id
-  // (2 per slot) 5 doubles of forces and scratch; mesh: 4 B grid map, 8 B grid coordinates,
-  // 1 B flags, 8 B mass, per id 8 B neighbours, 2 B flags, 16 B geometry; lists 24 B; the
-  // AMRC tree 2 B.
-  const std::size_t per_slot =
-      7 * 24 + 24 + 8 + 2 * 5 * 8 + 4 + 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
+  // (2 per slot) 5 doubles of forces and scratch; mesh: 1 B flags, 8 B mass, per id 8 B
+  // neighbours, 2 B flags, 16 B geometry (the grid map is computed, ClothMesh::slot); lists
+  // 24 B; the AMRC tree 2 B.
+  const std::size_t per_slot = 7 * 24 + 24 + 8 + 2 * 5 * 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
   const Preconditioner kind = resolved_preconditioner(config.solver);
   const std::size_t lines =
       kind == Preconditioner::line_solves || kind == Preconditioner::multigrid

@@ -220,7 +220,8 @@ Eigen::SparseMatrix<double> VcyclePreconditioner::prolongation(int k) const {
 std::size_t VcyclePreconditioner::memory_bytes() const {
   std::size_t bytes = (slot_of_node_.capacity() + unknown_.capacity()) * sizeof(std::int64_t) +
                       node_at_.capacity() * sizeof(std::int32_t) + topology_.memory_bytes() +
-                      bending_.capacity() + bending_now_.capacity() + changed_.capacity() +
+                      (bending_.capacity() + bending_now_.capacity()) * sizeof(std::uint64_t) +
+                      changed_.capacity() +
                       row_cols_.capacity() * sizeof(std::vector<std::int64_t>) +
                       row_source_.capacity() * sizeof(RowSource);
   for (const std::vector<std::int64_t>& arena : arenas_) {

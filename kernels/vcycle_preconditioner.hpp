@@ -52,7 +52,7 @@ class VcyclePreconditioner {
  public:
   /// Slots a block of factor()'s check of the structure against the model (blocks run in
   /// parallel).
-  static constexpr std::int64_t kCheckSlots = 4096;
+  static constexpr std::int64_t kCheckSlots = TopologyKey::kChunkSlots;
 
   /// A level this small (nodes) is solved directly.
   static constexpr std::int64_t kCoarsestNodes = 64;
@@ -129,11 +129,10 @@ class VcyclePreconditioner {
   /// entries) and line maps, four vectors, coordinates, P and P^T (4 weights a row); the
   /// coarser levels add about two thirds of that (a Galerkin row has up to 25 blocks;
   /// 2.37 kB a slot measured on a 129^2 sheet).
-  /// Plus, a slot of the mesh, the structure's topology key, the unknown and the coarsening's
-  /// node of every slot, and two bending bytes for each of its two element ids.
+  /// Plus, a slot of the mesh, the unknown and the coarsening's node of every slot (the
+  /// topology key and the bending digests take 8 bytes per kCheckSlots slots).
   static constexpr std::size_t kBytesPerSlot =
-      (9 * 44 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 +
-      TopologyKey::kBytesPerSlot + 8 + 4 + 2 * 2;
+      (9 * 44 + 16 * 8 + 2 * 3 * 9 * 8 + 6 * 8 + 4 * 3 * 8 + 8 + 2 * (4 * 16 + 8)) * 5 / 3 + 8 + 4;
 
  private:
   /// A square matrix of 3x3 blocks by node: per row its blocks in column order.
@@ -293,7 +292,9 @@ class VcyclePreconditioner {
   std::vector<std::int64_t> unknown_;       ///< slot -> level 0 node, or -1
   std::vector<std::int32_t> node_at_;       ///< per grid point: coarsen()'s node there, -1 between
   TopologyKey topology_;                    ///< the mesh the structure was made for,
-  std::vector<std::uint8_t> bending_, bending_now_;  ///< its triples with bending stiffness
+  /// Per check block, the digest of which of its triples have bending stiffness: the
+  /// structure's, and the model's at the last check.
+  std::vector<std::uint64_t> bending_, bending_now_;
   std::int64_t structure_coarsest_ = -1;             ///< and its coarsest size
   bool new_structure_ = false;                       ///< written in factor()'s check, read after it
   std::vector<std::uint8_t> changed_;      ///< per check block: the structure differs there

@@ -322,27 +322,29 @@ void VcyclePreconditioner::factor(LoopRunner& run, const StepContext& ctx,
   {
     const double started = omp_get_wtime();
     ++factorisations_;
-    bending_now_.resize(static_cast<std::size_t>(hessian.element_ids()));
+    bending_now_.resize(static_cast<std::size_t>(check_blocks));
     changed_.assign(static_cast<std::size_t>(check_blocks), 0);
     comparable_ = topology_.same_extent(mesh) && structure_coarsest_ == coarsest_nodes_ &&
                   bending_.size() == bending_now_.size();
     sequential_seconds_ += omp_get_wtime() - started;
   }
-  // Per slot: its flag, and per element id its two active flags, the model's bending
-  // coefficient and the structure's byte read, the new byte written (both sides of the
-  // topology's comparison read).
+  // Per slot: the mesh's topology bytes, and per element id the model's bending coefficient;
+  // per block two digests read and one written.
   const LoopBytes check_bytes{
-      .read = kCheckSlots * (2 * TopologyKey::kBytesPerSlot + 2 * (bytes::kDouble + 1.0)),
-      .written = kCheckSlots * 2.0 + 1.0};
+      .read = kCheckSlots * (TopologyKey::kMeshBytesPerSlot + 2 * bytes::kFloat) + 16.0,
+      .written = 9.0};
   run.for_index(check_blocks, check_bytes, [&](std::int64_t block) {
     const std::int64_t begin = block * kCheckSlots;
     const std::int64_t end = std::min(mesh.slot_count(), begin + kCheckSlots);
-    bool changed = false;
+    // Which of the block's triples bend, as one byte per element id, digested.
+    thread_local std::vector<std::uint8_t> bends;
+    bends.resize(static_cast<std::size_t>(2 * (end - begin)));
     for (std::int64_t id = 2 * begin; id < 2 * end; ++id) {
-      const std::uint8_t bends = hessian.bends(id) ? 1 : 0;
-      bending_now_[id] = bends;
-      changed = changed || (comparable_ && bending_[id] != bends);
+      bends[static_cast<std::size_t>(id - 2 * begin)] = hessian.bends(id) ? 1 : 0;
     }
+    const auto b = static_cast<std::size_t>(block);
+    bending_now_[b] = digest_bytes(bends.data(), bends.size(), static_cast<std::uint64_t>(block));
+    const bool changed = comparable_ && bending_[b] != bending_now_[b];
     changed_[block] = changed || !comparable_ || !topology_.matches_slots(mesh, begin, end);
   });
 #pragma omp single

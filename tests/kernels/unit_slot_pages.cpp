@@ -1,6 +1,9 @@
-// Handing back the pages of unused slots (kernels/slot_pages.hpp): which slots count as
-// unused, which pages go back (whole pages inside a run only, never a page that also holds a
-// slot in use), and an Active-List's capacity beyond its entries.
+// The blocked slot layout (kernels/cloth_mesh.hpp: slot(i, j) and its inverse grid_of(s),
+// both computed, not stored), the topology key's chunk digests (kernels/topology_key.hpp),
+// and handing back the pages of unused slots
+// (kernels/slot_pages.hpp): which slots count as unused, which pages go back (whole pages
+// inside a run only, never a page that also holds a slot in use), and an Active-List's
+// capacity beyond its entries.
 #include <gtest/gtest.h>
 
 #if defined(__linux__)
@@ -9,16 +12,142 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "kernels/cloth_mesh.hpp"
 #include "kernels/simulation_config.hpp"
 #include "kernels/slot_pages.hpp"
+#include "kernels/topology_key.hpp"
 
 namespace clothbench {
 namespace {
 
 using kernels::SlotRuns;
+
+TEST(SlotLayout, SlotAndGridCoordinatesAreInverseAndEveryTileIsOneRowOfOneBlock) {
+  // Blocks that divide the grid, that do not (short last block row and column), one block
+  // larger than the grid, one-particle blocks, and the paper's 1001^2 in 50 x 50 blocks.
+  const int cases[][3] = {{7, 11, 3}, {12, 8, 4}, {5, 5, 10},
+                          {4, 6, 1},  {13, 2, 5}, {1001, 1001, 50}};
+  for (const auto& [ni, nj, block] : cases) {
+    SCOPED_TRACE(testing::Message() << ni << " x " << nj << ", block " << block);
+    kernels::ClothConfig cloth;
+    cloth.particles_i = ni;
+    cloth.particles_j = nj;
+    cloth.block_size = block;
+    const kernels::ClothMesh mesh(cloth, 0.1);
+    const std::int64_t n = mesh.slot_count();
+    ASSERT_EQ(n, static_cast<std::int64_t>(ni) * nj);
+    std::vector<char> seen(static_cast<std::size_t>(n), 0);
+    int failures = 0;
+    for (int i = 0; i < ni && failures < 5; ++i) {
+      for (int j = 0; j < nj && failures < 5; ++j) {
+        const std::int64_t s = mesh.slot(i, j);
+        const bool inside = s >= 0 && s < n;
+        EXPECT_TRUE(inside) << "(" << i << ", " << j << ") -> " << s;
+        if (!inside) {
+          ++failures;
+          continue;
+        }
+        EXPECT_EQ(seen[static_cast<std::size_t>(s)], 0) << "slot " << s << " taken twice";
+        seen[static_cast<std::size_t>(s)] = 1;
+        const auto [gi, gj] = mesh.grid_of(s);
+        if (gi != i || gj != j) {
+          ADD_FAILURE() << "(" << i << ", " << j << ") -> slot " << s << " -> (" << gi << ", " << gj
+                        << ")";
+          ++failures;
+        }
+      }
+    }
+    // Blocks in row-major block order; each tile is one row of one block, its slots consecutive
+    // from the tile's first, left to right.
+    const int blocks_j = (nj + block - 1) / block;
+    ASSERT_EQ(mesh.block_count(), static_cast<std::int64_t>((ni + block - 1) / block) * blocks_j);
+    for (std::int64_t b = 0; b < mesh.block_count(); ++b) {
+      const int i0 = static_cast<int>(b / blocks_j) * block,
+                j0 = static_cast<int>(b % blocks_j) * block;
+      const int width = std::min(nj - j0, block);
+      for (std::int64_t t = mesh.block_tile_begin[b]; t < mesh.block_tile_begin[b + 1]; ++t) {
+        const int i = i0 + static_cast<int>(t - mesh.block_tile_begin[b]);
+        ASSERT_EQ(mesh.tile_slot_begin[t + 1] - mesh.tile_slot_begin[t], width) << "tile " << t;
+        for (int k = 0; k < width; ++k) {
+          ASSERT_EQ(mesh.slot(i, j0 + k), mesh.tile_slot_begin[t] + k)
+              << "tile " << t << ", column " << k;
+        }
+      }
+    }
+  }
+}
+
+TEST(TopologyKey, AChangedFlagOrActiveByteFailsItsChunkAndOnlyItsChunk) {
+  kernels::ClothConfig cloth;
+  cloth.particles_i = 67;
+  cloth.particles_j = 131;  // 8,777 slots: two whole chunks of 4,096 and a partial one
+  cloth.block_size = 10;
+  kernels::ClothMesh mesh(cloth, 0.1);
+  for (std::int64_t s = 0; s < mesh.slot_count(); s += 3) mesh.flags[s] = kernels::kParticleGhost;
+  kernels::TopologyKey key;
+  EXPECT_FALSE(key.matches(mesh));  // nothing taken yet
+  key.take(mesh);
+  ASSERT_TRUE(key.matches(mesh));
+  const std::int64_t chunk = kernels::TopologyKey::kChunkSlots;
+  const std::int64_t chunks = kernels::TopologyKey::chunks(mesh.slot_count());
+  ASSERT_EQ(chunks, 3);
+  const std::int64_t slots[] = {0, chunk - 1, chunk, 2 * chunk + 17, mesh.slot_count() - 1};
+  for (const std::int64_t s : slots) {
+    for (int array = 0; array < 3; ++array) {
+      for (int d = 0; d < (array == 0 ? 1 : 2); ++d) {
+        std::uint8_t& byte = array == 0   ? mesh.flags[static_cast<std::size_t>(s)]
+                             : array == 1 ? mesh.edge_active[static_cast<std::size_t>(2 * s + d)]
+                                          : mesh.triple_active[static_cast<std::size_t>(2 * s + d)];
+        const std::uint8_t kept = byte;
+        byte ^= 1;
+        SCOPED_TRACE(testing::Message() << "slot " << s << ", array " << array << ", d " << d);
+        EXPECT_FALSE(key.matches(mesh));
+        for (std::int64_t c = 0; c < chunks; ++c) {
+          EXPECT_EQ(
+              key.matches_slots(mesh, c * chunk, std::min(mesh.slot_count(), (c + 1) * chunk)),
+              c != s / chunk)
+              << "chunk " << c;
+        }
+        byte = kept;
+        EXPECT_TRUE(key.matches(mesh));
+      }
+    }
+  }
+  // Two bytes swapped inside one chunk change its digest too (positions count, not a sum).
+  std::swap(mesh.flags[2], mesh.flags[3]);
+  EXPECT_FALSE(key.matches(mesh));
+  std::swap(mesh.flags[2], mesh.flags[3]);
+  key.clear();
+  EXPECT_FALSE(key.matches(mesh));
+  // Another extent never matches.
+  key.take(mesh);
+  cloth.particles_j = 130;
+  EXPECT_FALSE(key.matches(kernels::ClothMesh(cloth, 0.1)));
+}
+
+TEST(TopologyKey, EverySingleBitFlipOfABufferGivesADifferentDigest) {
+  std::vector<std::uint8_t> bytes(20 * 1024 + 5, 0);
+  for (std::size_t k = 0; k < bytes.size(); k += 7) bytes[k] = static_cast<std::uint8_t>(k % 5);
+  std::vector<std::uint64_t> seen{kernels::digest_bytes(bytes.data(), bytes.size(), 3)};
+  for (std::size_t k = 0; k < bytes.size(); k += 97) {
+    for (int bit = 0; bit < 8; bit += 3) {
+      bytes[k] ^= static_cast<std::uint8_t>(1u << bit);
+      seen.push_back(kernels::digest_bytes(bytes.data(), bytes.size(), 3));
+      bytes[k] ^= static_cast<std::uint8_t>(1u << bit);
+    }
+  }
+  const std::size_t count = seen.size();
+  std::sort(seen.begin(), seen.end());
+  EXPECT_EQ(std::unique(seen.begin(), seen.end()) - seen.begin(),
+            static_cast<std::ptrdiff_t>(count));
+  // The seed and the length count as well.
+  EXPECT_NE(kernels::digest_bytes(bytes.data(), bytes.size(), 3),
+            kernels::digest_bytes(bytes.data(), bytes.size(), 4));
+  EXPECT_NE(kernels::digest_bytes(bytes.data(), 64, 3), kernels::digest_bytes(bytes.data(), 65, 3));
+}
 
 TEST(SlotPages, UnusedRunsAreTheMaximalRunsOfSlotsNeitherParticleNorGhost) {
   kernels::ClothConfig cloth;
