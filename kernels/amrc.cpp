@@ -283,7 +283,7 @@ void AdaptiveMesh::write_mesh(ClothMesh& mesh) const {
         continue;
       }
       auto own_quarters = [&](std::int64_t k) {
-        const int pi = mesh.grid_i(k), pj = mesh.grid_j(k);
+        const auto [pi, pj] = mesh.grid_of(k);
         double area = 0.0;
         for (int fi = pi - 1; fi <= pi; ++fi) {
           for (int fj = pj - 1; fj <= pj; ++fj) {

@@ -66,39 +66,54 @@ void ClothMesh::update_reference_geometry() {
   // Widths and masses from the cells around each node: a node's perpendicular extent is half
   // the distance to the previous plus half the distance to the next node on the crossing line.
   const std::int64_t n = slot_count();
-  auto half_extent = [&](std::int64_t s, int d) {
-    // Extent along direction d of the area a node stands for (m).
-    double extent = 0.0;
-    const std::int64_t id = element_id(s, d);
-    if (next[id] >= 0) {
-      const int span = d == 0 ? grid_i(next[id]) - grid_i(s) : grid_j(next[id]) - grid_j(s);
-      extent += 0.5 * span * spacing_[d];
-    }
-    if (prev[id] >= 0) {
-      const int span = d == 0 ? grid_i(s) - grid_i(prev[id]) : grid_j(s) - grid_j(prev[id]);
-      extent += 0.5 * span * spacing_[d];
-    }
-    return extent;
-  };
   for (std::int64_t s = 0; s < n; ++s) {
     const bool node = (flags[s] & (kParticleActive | kParticleGhost)) != 0;
     const bool active = (flags[s] & kParticleActive) != 0;
-    mass[s] = active ? areal_density_ * half_extent(s, 0) * half_extent(s, 1) : 0.0;
+    if (!node) {
+      mass[s] = 0.0;
+      for (int d = 0; d < 2; ++d) {
+        edge_active[element_id(s, d)] = 0;
+        triple_active[element_id(s, d)] = 0;
+      }
+      continue;
+    }
+    // Grid distances to the next and previous node along each direction (0 where there is
+    // none), each slot's coordinates computed once, and the extent along d of the area the
+    // node stands for (m).
+    const auto [i, j] = grid_of(s);
+    const int own[2] = {i, j};
+    auto along = [&](std::int64_t t, int d) {
+      const auto [ti, tj] = grid_of(t);
+      return d == 0 ? ti : tj;
+    };
+    int next_span[2] = {0, 0};
+    double extent[2] = {0.0, 0.0};
+    for (int d = 0; d < 2; ++d) {
+      const std::int64_t id = element_id(s, d);
+      if (next[id] >= 0) {
+        next_span[d] = along(next[id], d) - own[d];
+        extent[d] += 0.5 * next_span[d] * spacing_[d];
+      }
+      if (prev[id] >= 0) {
+        const int prev_span = own[d] - along(prev[id], d);
+        extent[d] += 0.5 * prev_span * spacing_[d];
+      }
+    }
+    mass[s] = active ? areal_density_ * extent[0] * extent[1] : 0.0;
     for (int d = 0; d < 2; ++d) {
       const std::int64_t id = element_id(s, d);
       const int other = 1 - d;
-      const bool has_next = node && next[id] >= 0;
+      const bool has_next = next[id] >= 0;
       edge_active[id] = has_next ? 1 : 0;
       if (has_next) {
-        const int span = d == 0 ? grid_i(next[id]) - grid_i(s) : grid_j(next[id]) - grid_j(s);
-        edge_rest[id] = static_cast<float>(span * spacing_[d]);
-        edge_width[id] = static_cast<float>(half_extent(s, other));
+        edge_rest[id] = static_cast<float>(next_span[d] * spacing_[d]);
+        edge_width[id] = static_cast<float>(extent[other]);
       }
       const bool has_triple = active && next[id] >= 0 && prev[id] >= 0;
       triple_active[id] = has_triple ? 1 : 0;
       if (has_triple) {
-        triple_rest[id] = static_cast<float>(half_extent(s, d));
-        triple_width[id] = static_cast<float>(half_extent(s, other));
+        triple_rest[id] = static_cast<float>(extent[d]);
+        triple_width[id] = static_cast<float>(extent[other]);
       }
     }
   }

@@ -50,7 +50,8 @@ void MultigridPreconditioner::build_prolongation(const StepContext& ctx) {
   const std::int64_t slots = mesh.slot_count();
   const int ni = mesh.size_i(), nj = mesh.size_j();
   auto lattice = [&](std::int64_t s) {
-    return coarse_line(mesh.grid_i(s), ni) && coarse_line(mesh.grid_j(s), nj);
+    const auto [i, j] = mesh.grid_of(s);
+    return coarse_line(i, ni) && coarse_line(j, nj);
   };
   // The free particles a fine particle follows, or false when it must be a coarse node.
   Follow list;
@@ -58,8 +59,9 @@ void MultigridPreconditioner::build_prolongation(const StepContext& ctx) {
     list.clear();
     int ci[2], cj[2];
     double wi[2], wj[2];
-    const int n_i = around(mesh.grid_i(s), ni, ci, wi);
-    const int n_j = around(mesh.grid_j(s), nj, cj, wj);
+    const auto [i, j] = mesh.grid_of(s);
+    const int n_i = around(i, ni, ci, wi);
+    const int n_j = around(j, nj, cj, wj);
     for (int a = 0; a < n_i; ++a) {
       for (int b = 0; b < n_j; ++b) {
         if (!follow(mesh, mesh.slot(ci[a], cj[b]), wi[a] * wj[b], list)) return false;

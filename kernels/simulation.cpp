@@ -371,7 +371,8 @@ std::string Simulation::locate_non_finite() const {
   // std::string concatenations here.
   std::ostringstream out;
   auto at = [&](std::int64_t s) {
-    out << '(' << mesh_.grid_i(s) << ", " << mesh_.grid_j(s) << ')';
+    const auto [i, j] = mesh_.grid_of(s);
+    out << '(' << i << ", " << j << ')';
   };
   auto value = [&](double v) {
     out << " = " << (std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf");

@@ -69,7 +69,7 @@ VcyclePreconditioner::Coarsening VcyclePreconditioner::coarsen(const StepContext
       const std::int64_t id = element_id(slot, d);
       for (const std::int64_t parent : {mesh.prev[id], mesh.next[id]}) {
         if (parent < 0) return false;
-        const int pi = mesh.grid_i(parent), pj = mesh.grid_j(parent);
+        const auto [pi, pj] = mesh.grid_of(parent);
         const std::int64_t b = node_at[grid(pi, pj)];
         const std::uint8_t pf = mesh.flags[parent];
         if (b >= 0) {
@@ -230,8 +230,9 @@ void VcyclePreconditioner::begin_structure(const StepContext& ctx) {
     if (!ctx.is_free(s)) continue;
     unknown_[s] = static_cast<std::int64_t>(slot_of_node_.size());
     slot_of_node_.push_back(s);
-    fine.i.push_back(mesh.grid_i(s));
-    fine.j.push_back(mesh.grid_j(s));
+    const auto [i, j] = mesh.grid_of(s);
+    fine.i.push_back(i);
+    fine.j.push_back(j);
   }
   fine.a.start.assign(slot_of_node_.size() + 1, 0);
   levels_.push_back(std::move(fine));
