@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "kernels/slot_pages.hpp"
@@ -17,6 +18,13 @@ inline Eigen::Map<Eigen::Vector3d> vec3(std::vector<double>& a, std::int64_t s) 
   return Eigen::Map<Eigen::Vector3d>(a.data() + 3 * s);
 }
 inline Eigen::Map<const Eigen::Vector3d> vec3(const std::vector<double>& a, std::int64_t s) {
+  return Eigen::Map<const Eigen::Vector3d>(a.data() + 3 * s);
+}
+/// The same for a view of an interleaved xyz array (NewtonSystem's PCG vectors).
+inline Eigen::Map<Eigen::Vector3d> vec3(std::span<double> a, std::int64_t s) {
+  return Eigen::Map<Eigen::Vector3d>(a.data() + 3 * s);
+}
+inline Eigen::Map<const Eigen::Vector3d> vec3(std::span<const double> a, std::int64_t s) {
   return Eigen::Map<const Eigen::Vector3d>(a.data() + 3 * s);
 }
 
@@ -41,8 +49,12 @@ struct ClothState {
   // elements (per element id)
   std::vector<double> edge_force;     ///< t_e at the last completed step (N/m)
   std::vector<double> triple_moment;  ///< M_t at the last completed step (N)
-  std::vector<double> edge_scratch;   ///< per evaluation: w t / l (N/m^2 * m = N/m)
-  std::vector<double> triple_scratch; ///< per evaluation: 3 per id, w M (A, Bc, C)
+  /// Per evaluation: w t / l (N/m^2 * m = N/m) per id; under Newton 3 a slot, the inner PCG's
+  /// residual while a direction is solved (NewtonSystem).
+  std::vector<double> edge_scratch;
+  /// Per evaluation: 3 per id, w M (A, Bc, C); under Newton the inner PCG's search direction
+  /// and product while a direction is solved (NewtonSystem).
+  std::vector<double> triple_scratch;
   /// Per step: 2 per id, curvatures where the bending loading / unloading curve reaches M_t
   /// (the return mapping's breakpoints; an inverse of a non-power-law curve, so cached).
   std::vector<double> triple_breakpoints;
@@ -54,8 +66,10 @@ struct ClothState {
   std::vector<ExternalForce> external_forces;
 
   /// Allocates every array for `slots` particles (zero-filled); gradient_old only with
-  /// `cg_history` (the nonlinear CG minimiser's), triple_offloading only with `vector_kernel`.
-  void allocate(std::int64_t slots, bool cg_history = true, bool vector_kernel = false) {
+  /// `cg_history` (the nonlinear CG minimiser's), triple_offloading only with `vector_kernel`,
+  /// and edge_scratch with 3 doubles a slot instead of 2 with `newton` (NewtonSystem).
+  void allocate(std::int64_t slots, bool cg_history = true, bool vector_kernel = false,
+                bool newton = false) {
     const auto n = static_cast<std::size_t>(slots);
     for (auto* v : {&position, &step_start, &target, &gradient, &direction}) v->assign(3 * n, 0.0);
     gradient_old.assign(cg_history ? 3 * n : 0, 0.0);
@@ -63,7 +77,7 @@ struct ClothState {
     preconditioner.assign(6 * n, 0.0f);
     edge_force.assign(2 * n, 0.0);
     triple_moment.assign(2 * n, 0.0);
-    edge_scratch.assign(2 * n, 0.0);
+    edge_scratch.assign((newton ? 3 : 2) * n, 0.0);
     triple_scratch.assign(6 * n, 0.0);
     triple_breakpoints.assign(4 * n, 0.0);
     triple_offloading.assign(vector_kernel ? 4 * n : 0, 0.0);
@@ -79,14 +93,23 @@ struct ClothState {
     std::size_t b = release_slot_pages(preconditioner, 6, runs) +
                     release_slot_pages(edge_force, 2, runs) +
                     release_slot_pages(triple_moment, 2, runs) +
-                    release_slot_pages(triple_offloading, 4, runs) +
-                    release_slot_pages(edge_scratch, 2, runs) +
+                    release_slot_pages(triple_offloading, 4, runs) + release_edge_scratch(runs) +
                     release_slot_pages(triple_scratch, 6, runs) +
                     release_slot_pages(triple_breakpoints, 4, runs);
     for (auto* v : {&step_start, &target, &gradient, &gradient_old, &direction}) {
       b += release_slot_pages(*v, 3, runs);
     }
     return b;
+  }
+  /// edge_scratch's pages of slots unused both as 2 doubles a slot (the evaluation's) and,
+  /// under Newton, as 3 (the PCG residual's, NewtonSystem).
+  std::size_t release_edge_scratch(const SlotRuns& runs) {
+    const auto slots = static_cast<std::int64_t>(position.size() / 3);
+    if (static_cast<std::int64_t>(edge_scratch.size()) <= 2 * slots) {
+      return release_slot_pages(edge_scratch, 2, runs);
+    }
+    return release_slot_pages(edge_scratch.data(), sizeof(double), 1,
+                              shared_element_runs(runs, slots, 2, 3));
   }
   /// Bytes held by the arrays.
   [[nodiscard]] std::size_t memory_bytes() const {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <span>
 
 #include "kernels/cloth_mesh.hpp"
 #include "kernels/cloth_state.hpp"
@@ -21,7 +22,7 @@ namespace clothbench::kernels {
 
 /// Value of an interleaved xyz array at node s: stored for active particles, the midpoint of
 /// the parents' values (recursively) for ghosts. Reads only active particles' entries.
-inline Eigen::Vector3d node_value(const ClothMesh& mesh, const std::vector<double>& values,
+inline Eigen::Vector3d node_value(const ClothMesh& mesh, std::span<const double> values,
                                   std::int64_t s) {
   const int d = ghost_direction(mesh.flags[s]);
   if (d < 0) return vec3(values, s);

@@ -78,8 +78,8 @@ void LinePreconditioner::factor(LoopRunner& run, const StepContext& ctx) {
   }
 }
 
-void LinePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
-                               const std::vector<double>& g, std::vector<double>& out) {
+void LinePreconditioner::apply(LoopRunner& run, const StepContext& ctx, std::span<const double> g,
+                               std::span<double> out) {
   const ClothMesh& mesh = ctx.mesh;
   for (int d = 0; d < 2; ++d) {
     // Per node: the walk, g, the edge block and the pivot inverse read; the line's value

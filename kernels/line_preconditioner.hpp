@@ -21,6 +21,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "kernels/loop_runner.hpp"
@@ -41,8 +42,8 @@ class LinePreconditioner {
   /// Every thread of the region calls it.
   void factor(LoopRunner& run, const StepContext& ctx);
   /// out = z for every free slot, 0 elsewhere. Every thread; ends after a barrier.
-  void apply(LoopRunner& run, const StepContext& ctx, const std::vector<double>& g,
-             std::vector<double>& out);
+  void apply(LoopRunner& run, const StepContext& ctx, std::span<const double> g,
+             std::span<double> out);
 
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Bytes the preconditioner (with the objective's z) needs per slot (memory estimates).

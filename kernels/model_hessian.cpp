@@ -194,31 +194,23 @@ Eigen::Matrix3d ModelHessian::edge_block(const StepContext& ctx, std::int64_t id
   return beta * Eigen::Matrix3d::Identity() + (alpha - beta) * u * u.transpose();
 }
 
-double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<double>& v,
-                           std::vector<double>& y) {
+double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::span<double> v,
+                           std::span<double> y) {
   const ClothMesh& mesh = ctx.mesh;
   ClothState& st = ctx.state;
   auto x = [&](std::int64_t k) { return vec3(st.position, k); };
   auto value = [&](std::int64_t k) { return vec3(v, k); };
   refresh_ghosts(run, mesh, v);
-  // Triples: q_t = C J v with J v = P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1| and
-  // C = c (I - k k^T) + c_along k k^T, 3 per id. c, c_along, prev, next and the shares of x and
-  // v read; q written.
-  const LoopBytes triple_bytes{
-      .read = 2 * bytes::kFloat + 2 * bytes::kIndex + 2 * bytes::kSlotShare * bytes::kVector3,
-      .written = bytes::kVector3};
-  run.for_each(ElementKind::triples, triple_bytes, [&](std::int64_t id) {
-    auto q = vec3(st.triple_scratch, id);
-    const double c = bending_[id];
-    const TripleArms arms = c > 0.0 ? triple_arms(mesh, id, x) : TripleArms{};
-    if (!arms.valid) {
-      q.setZero();
-      return;
-    }
+  // A triple's q_t = C J v with J v = P2 (v_b - v_c)/|e2| - P1 (v_c - v_a)/|e1| and
+  // C = c (I - k k^T) + c_along k k^T, computed by each of its nodes where it is needed rather
+  // than stored (no work space: the inner PCG's vectors share the evaluation's scratch,
+  // newton_system.hpp). The same operations in the same order give every node the same q.
+  auto triple_q = [&](std::int64_t id, const TripleArms& arms) {
     const Eigen::Vector3d vc = value(element_slot(id));
     const Eigen::Vector3d jv = project_out(arms.u2, value(mesh.next[id]) - vc) * arms.inverse2 -
                                project_out(arms.u1, vc - value(mesh.prev[id])) * arms.inverse1;
-    q = c * jv;
+    const double c = bending_[id];
+    Eigen::Vector3d q = c * jv;
     const double anisotropy = bending_along_[id] - c;
     const Eigen::Vector3d turning = arms.u2 - arms.u1;
     const double length = turning.norm();
@@ -226,7 +218,8 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
       const Eigen::Vector3d k = turning / length;
       q += anisotropy * k * k.dot(jv);
     }
-  });
+    return q;
+  };
   // Particles: what each node receives from its edges and triples, ghosts' shares included.
   auto node_product = [&](std::int64_t k) {
     Eigen::Vector3d out = Eigen::Vector3d::Zero();
@@ -245,7 +238,7 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
         const std::int64_t tn = element_id(n, d);  // k is the previous node of n's triple
         if (mesh.triple_active[tn] && mesh.prev[tn] == k && bending_[tn] > 0.0) {
           const TripleArms arms = triple_arms(mesh, tn, x);
-          if (arms.valid) out += project_out(arms.u1, vec3(st.triple_scratch, tn)) * arms.inverse1;
+          if (arms.valid) out += project_out(arms.u1, triple_q(tn, arms)) * arms.inverse1;
         }
       }
       if (p >= 0) {
@@ -253,24 +246,24 @@ double ModelHessian::apply(LoopRunner& run, const StepContext& ctx, std::vector<
         if (mesh.edge_active[ep] && mesh.next[ep] == k) edge_to(ep, p);
         if (mesh.triple_active[ep] && mesh.next[ep] == k && bending_[ep] > 0.0) {
           const TripleArms arms = triple_arms(mesh, ep, x);
-          if (arms.valid) out += project_out(arms.u2, vec3(st.triple_scratch, ep)) * arms.inverse2;
+          if (arms.valid) out += project_out(arms.u2, triple_q(ep, arms)) * arms.inverse2;
         }
       }
       if (mesh.triple_active[id] && bending_[id] > 0.0) {
         const TripleArms arms = triple_arms(mesh, id, x);
         if (arms.valid) {
-          const Eigen::Vector3d q = vec3(st.triple_scratch, id);
+          const Eigen::Vector3d q = triple_q(id, arms);
           out -= project_out(arms.u1, q) * arms.inverse1 + project_out(arms.u2, q) * arms.inverse2;
         }
       }
     }
     return out;
   };
-  // Flags, the mass and contact index, x, v, the slot's elements and its triples' q read; y
-  // written (a contact block read besides for the few particles near an obstacle).
+  // Flags, the mass and contact index, x, v and the slot's elements read (the triples' q are
+  // formed from the neighbours' x and v, counted at their own slots); y written (a contact
+  // block read besides for the few particles near an obstacle).
   const LoopBytes particle_bytes{.read = bytes::kFlag + bytes::kDouble + bytes::kIndex +
-                                         2 * bytes::kVector3 +
-                                         bytes::kIdsPerSlot * (kElementRead + bytes::kVector3),
+                                         2 * bytes::kVector3 + bytes::kIdsPerSlot * kElementRead,
                                  .written = bytes::kVector3};
   run.for_each_prepared<ScalarSum>(
       ElementKind::particles, &dot_partials_, particle_bytes,

@@ -46,6 +46,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -86,10 +87,10 @@ class ModelHessian {
                 double diagonal_written = 0.0, bool floor_along = true);
 
   /// y = H v on the free particles (0 elsewhere); returns v . y. v must be zero on every
-  /// active particle that is not free; its ghost entries are overwritten (midpoints). Uses the
-  /// state's triple_scratch as work space. Every thread of the region calls it.
-  double apply(LoopRunner& run, const StepContext& ctx, std::vector<double>& v,
-               std::vector<double>& y);
+  /// active particle that is not free; its ghost entries are overwritten (midpoints). Needs no
+  /// work space (v and y may be views into the state's triple_scratch, NewtonSystem). Every
+  /// thread of the region calls it.
+  double apply(LoopRunner& run, const StepContext& ctx, std::span<double> v, std::span<double> y);
 
   /// The assembled model as an explicit sparse matrix over the unknowns (3 rows and columns
   /// per free particle, unknown k at rows 3k..3k+2; `unknown_of_slot` from free_unknowns).

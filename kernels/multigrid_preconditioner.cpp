@@ -120,8 +120,8 @@ void MultigridPreconditioner::factor(LoopRunner& /*run*/, const StepContext& ctx
 }
 
 void MultigridPreconditioner::apply(LoopRunner& run, const StepContext& ctx,
-                                    LinePreconditioner& lines, const std::vector<double>& r,
-                                    std::vector<double>& out) {
+                                    LinePreconditioner& lines, std::span<const double> r,
+                                    std::span<double> out) {
   // out = L^-1 r + P A_c^-1 P^T r: the line solves, the restriction's rows, the coarse solve
   // on one thread, then each particle adds its prolonged correction.
   lines.apply(run, ctx, r, out);

@@ -33,6 +33,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "kernels/line_preconditioner.hpp"
@@ -51,7 +52,7 @@ class MultigridPreconditioner {
   /// out = B r on the free particles (0 elsewhere) for r zero off the free particles, with
   /// the line solves factorised last. Every thread calls it; ends after a barrier.
   void apply(LoopRunner& run, const StepContext& ctx, LinePreconditioner& lines,
-             const std::vector<double>& r, std::vector<double>& out);
+             std::span<const double> r, std::span<double> out);
 
   /// The prolongation (3 rows per slot, 3 columns per coarse node; tests).
   [[nodiscard]] const Eigen::SparseMatrix<double, Eigen::RowMajor>& prolongation() const {

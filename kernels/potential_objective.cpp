@@ -42,7 +42,8 @@ PotentialObjective::PotentialObjective(const StepContext& ctx)
       line_z_.assign(3 * static_cast<std::size_t>(ctx.mesh.slot_count()), 0.0);
     }
   }
-  if (ctx.config.solver.method == StepMethod::newton) newton_ = std::make_unique<NewtonSystem>(ctx.mesh);
+  if (ctx.config.solver.method == StepMethod::newton)
+    newton_ = std::make_unique<NewtonSystem>(ctx.mesh, ctx.state);
   if (kind == Preconditioner::multigrid) {
     if (newton_ == nullptr) {
       throw std::invalid_argument(

@@ -106,7 +106,9 @@ class PotentialObjective final : public StepObjective {
   /// evaluates afterwards. Returns the number of particles that moved.
   std::int64_t smooth(LoopRunner& run, int sweeps, double threshold);
   /// Each slot's smoothing colour (-1: not free) and the slots of every colour (tests).
-  [[nodiscard]] const std::vector<int>& smoothing_colours() const { return smoothing_colour_; }
+  [[nodiscard]] const std::vector<std::int16_t>& smoothing_colours() const {
+    return smoothing_colour_;
+  }
   [[nodiscard]] std::size_t smoothing_colour_count() const { return smoothing_lists_.size(); }
   /// Per colour, the ghosts its sweep refreshes (those hanging on its slots).
   [[nodiscard]] const std::vector<std::vector<std::int64_t>>& smoothing_ghosts() const {
@@ -161,13 +163,15 @@ class PotentialObjective final : public StepObjective {
   std::atomic<bool> vcycle_on_{false};
   std::int64_t vcycle_steps_ = 0;  ///< steps (and sub-steps) that built the V-cycle
   /// Nonlinear smoothing: each free slot's colour (-1 otherwise), the slots of each colour in
-  /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call).
-  std::vector<int> smoothing_colour_;
-  std::vector<std::vector<std::int64_t>> smoothing_lists_;
+  /// slot order, and the sweep (1-based) in which a slot last moved (0: not in this call):
+  /// 2 + 4 + 2 bytes a free slot (a footprint has a few dozen particles, so far fewer colours
+  /// than int16; sweeps are at most the scene loader's 1,000).
+  std::vector<std::int16_t> smoothing_colour_;
+  std::vector<std::vector<std::int32_t>> smoothing_lists_;
   /// Per colour, the ghosts a move of its slots moves (hanging on them, directly or through
   /// other ghosts), each once, in slot order: all a colour's sweep has to refresh.
   std::vector<std::vector<std::int64_t>> smoothing_ghosts_;
-  std::vector<int> smoothing_moved_;
+  std::vector<std::uint16_t> smoothing_moved_;
   TopologyKey smoothing_topology_;  ///< the mesh the colouring was made for
 };
 

@@ -12,6 +12,8 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 
 #include "kernels/potential_elements.hpp"
 #include "kernels/potential_objective.hpp"
@@ -61,19 +63,35 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
     const ClothMesh& mesh = ctx_.mesh;
     const std::int64_t slots = mesh.slot_count();
     smoothing_colour_.assign(static_cast<std::size_t>(slots), -1);
-    smoothing_lists_.clear();
+    // Colours first, then each colour's list at its exact size (no growth slack: this runs
+    // while every slot of the finest mesh may be free).
+    std::vector<std::int64_t> counts;
     std::vector<char> used;
     for (std::int64_t s = 0; s < slots; ++s) {
       if (!ctx_.is_free(s)) continue;
-      used.assign(smoothing_lists_.size() + 1, 0);
+      used.assign(counts.size() + 1, 0);
       for_each_footprint(mesh, s, [&](std::int64_t k) {
         const int c = smoothing_colour_[k];
         if (k != s && c >= 0) used[c] = 1;
       });
       const auto colour = static_cast<std::size_t>(std::find(used.begin(), used.end(), 0) - used.begin());
-      if (colour == smoothing_lists_.size()) smoothing_lists_.emplace_back();
-      smoothing_lists_[colour].push_back(s);
-      smoothing_colour_[s] = static_cast<int>(colour);
+      if (colour == counts.size()) {
+        if (colour > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max())) {
+          throw std::logic_error("colour_for_smoothing: more colours than int16 holds");
+        }
+        counts.push_back(0);
+      }
+      ++counts[colour];
+      smoothing_colour_[s] = static_cast<std::int16_t>(colour);
+    }
+    smoothing_lists_.assign(counts.size(), {});
+    for (std::size_t c = 0; c < counts.size(); ++c) {
+      smoothing_lists_[c].reserve(static_cast<std::size_t>(counts[c]));
+    }
+    for (std::int64_t s = 0; s < slots; ++s) {
+      const int c = smoothing_colour_[s];
+      if (c >= 0)
+        smoothing_lists_[static_cast<std::size_t>(c)].push_back(static_cast<std::int32_t>(s));
     }
     // Each colour's ghosts: those hanging, directly or through other ghosts, on its slots.
     smoothing_ghosts_.assign(smoothing_lists_.size(), {});
@@ -85,7 +103,7 @@ void PotentialObjective::colour_for_smoothing(LoopRunner& /*run*/) {
           self(self, child);
         });
       };
-      for (const std::int64_t s : smoothing_lists_[c]) collect(collect, s);
+      for (const std::int32_t s : smoothing_lists_[c]) collect(collect, s);
       std::sort(ghosts.begin(), ghosts.end());
       ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
     }
@@ -117,7 +135,7 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
   ClothState& st = ctx_.state;
   const ClothMesh& mesh = ctx_.mesh;
   const double g_ref = ctx_.gravity_reference();
-  constexpr double kMark = sizeof(int);  // smoothing_moved_'s entry
+  constexpr double kMark = sizeof(std::uint16_t);  // smoothing_moved_'s entry
   run.for_each(ElementKind::particles, LoopBytes{.written = kMark},
                [&](std::int64_t s) { smoothing_moved_[s] = 0; });
   for (int sweep = 0; sweep < sweeps; ++sweep) {
@@ -128,7 +146,7 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
     const LoopBytes colour_bytes{.read =
                                      2 * bytes::kDouble + (sweep == 0 ? bytes::kVector3 : kMark)};
     for (std::size_t c = 0; c < smoothing_lists_.size(); ++c) {
-      const std::vector<std::int64_t>& colour = smoothing_lists_[c];
+      const std::vector<std::int32_t>& colour = smoothing_lists_[c];
       run.for_index(static_cast<std::int64_t>(colour.size()), colour_bytes, [&](std::int64_t k) {
         const std::int64_t s = colour[k];
         const double weight = mesh.mass[s] * g_ref;
@@ -159,7 +177,7 @@ std::int64_t PotentialObjective::smooth(LoopRunner& run, int sweeps, double thre
           const Eigen::Vector3d trial = xs + alpha * step;
           if (local_energy(s, trial) <= before + 1e-4 * alpha * slope) {
             vec3(st.position, s) = trial;
-            smoothing_moved_[s] = sweep + 1;
+            smoothing_moved_[s] = static_cast<std::uint16_t>(sweep + 1);
             return;
           }
         }

@@ -31,7 +31,8 @@ Simulation::Simulation(const SimulationConfig& config)
   check_events();
   state_.allocate(mesh_.slot_count(), config_.solver.method != StepMethod::newton,
                   config_.solver.kernel == ElementKernel::vector &&
-                      config_.solver.formulation == Formulation::potential);
+                      config_.solver.formulation == Formulation::potential,
+                  config_.solver.method == StepMethod::newton);
   place_initial_positions();
   if (const std::vector<ConfigProblem> problems = validate(config_); !problems.empty()) {
     throw std::invalid_argument(problems.front().key + ": " + problems.front().problem + " (" +

@@ -5,6 +5,7 @@
 #include <unistd.h>
 #endif
 
+#include <algorithm>
 #include <cstdint>
 
 namespace clothbench::kernels {
@@ -53,6 +54,45 @@ std::size_t release_slot_pages(void* data, std::size_t element_bytes, std::size_
   (void)runs;
   return 0;
 #endif
+}
+
+SlotRuns shared_element_runs(const SlotRuns& runs, std::int64_t slots, std::int64_t a,
+                             std::int64_t b) {
+  const std::int64_t end = std::max(a, b) * slots;
+  // Each use's element runs, with the elements past its own a x slots as one more run.
+  auto element_runs = [&](std::int64_t per_slot) {
+    SlotRuns out;
+    for (const auto& [first, last] : runs) {
+      if (!out.empty() && out.back().second == per_slot * first) {
+        out.back().second = per_slot * last;
+      } else {
+        out.emplace_back(per_slot * first, per_slot * last);
+      }
+    }
+    if (per_slot * slots < end) {
+      if (!out.empty() && out.back().second == per_slot * slots) {
+        out.back().second = end;
+      } else {
+        out.emplace_back(per_slot * slots, end);
+      }
+    }
+    return out;
+  };
+  const SlotRuns one = element_runs(a), two = element_runs(b);
+  // Both lists are sorted and disjoint: merge them, keeping the overlaps.
+  SlotRuns shared;
+  std::size_t i = 0, j = 0;
+  while (i < one.size() && j < two.size()) {
+    const std::int64_t first = std::max(one[i].first, two[j].first);
+    const std::int64_t last = std::min(one[i].second, two[j].second);
+    if (first < last) shared.emplace_back(first, last);
+    if (one[i].second < two[j].second) {
+      ++i;
+    } else {
+      ++j;
+    }
+  }
+  return shared;
 }
 
 }  // namespace clothbench::kernels

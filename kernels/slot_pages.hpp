@@ -33,6 +33,14 @@ std::size_t release_slot_pages(std::vector<T>& values, std::size_t per_slot, con
   return values.empty() ? 0 : release_slot_pages(values.data(), sizeof(T), per_slot, runs);
 }
 
+/// For an array of max(a, b) x `slots` elements that two uses read with `a` and with `b`
+/// elements a slot (a scratch array that also holds another loop's vectors): the runs
+/// [first, last) of element indices that neither use touches at a slot in use (element e
+/// belongs to slot e / a in one use, e / b in the other; beyond a x slots the first use has
+/// none). Release them with release_slot_pages(data, element_bytes, 1, ...).
+SlotRuns shared_element_runs(const SlotRuns& runs, std::int64_t slots, std::int64_t a,
+                             std::int64_t b);
+
 /// Hands back the whole pages of `values`' capacity beyond its size (a vector whose capacity
 /// is kept for the finest mesh, e.g. an Active-List, holds fewer entries on a coarser one).
 /// Growing it again writes its new elements, so nothing is lost. Returns the bytes.

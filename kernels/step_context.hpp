@@ -166,7 +166,7 @@ inline constexpr LoopBytes kGhostRefreshBytes{
 
 /// Puts every ghost of an interleaved xyz array (positions, adjoints) on the midpoint of its
 /// parents. Skipped entirely on a mesh without ghosts (no loop, no barrier).
-inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::vector<double>& values) {
+inline void refresh_ghosts(LoopRunner& run, const ClothMesh& mesh, std::span<double> values) {
   if (mesh.ghost_count() == 0) return;
   run.for_each(ElementKind::ghosts, kGhostRefreshBytes,
                [&](std::int64_t g) { vec3(values, g) = node_value(mesh, values, g); });

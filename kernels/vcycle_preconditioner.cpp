@@ -163,8 +163,8 @@ void VcyclePreconditioner::cycle(LoopRunner& run, std::size_t k) {
   smooth(run, level, false);
 }
 
-void VcyclePreconditioner::apply(LoopRunner& run, const StepContext& ctx,
-                                 const std::vector<double>& r, std::vector<double>& out) {
+void VcyclePreconditioner::apply(LoopRunner& run, const StepContext& ctx, std::span<const double> r,
+                                 std::span<double> out) {
   Level& fine = levels_.front();
   const std::int64_t nodes = static_cast<std::int64_t>(fine.i.size());
   // The node's slot and one vector read, the other written.

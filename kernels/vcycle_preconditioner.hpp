@@ -36,6 +36,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -89,8 +90,8 @@ class VcyclePreconditioner {
   void factor(LoopRunner& run, const StepContext& ctx, const ModelHessian& hessian);
   /// out = B r on the free particles (0 elsewhere): one V(1,1) cycle from zero. Every thread
   /// calls it; ends after a barrier.
-  void apply(LoopRunner& run, const StepContext& ctx, const std::vector<double>& r,
-             std::vector<double>& out);
+  void apply(LoopRunner& run, const StepContext& ctx, std::span<const double> r,
+             std::span<double> out);
 
   [[nodiscard]] int levels() const { return static_cast<int>(levels_.size()); }
   /// Nodes of level k (level 0: the free particles).

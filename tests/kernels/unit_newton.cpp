@@ -44,7 +44,7 @@ void owners_of(const kernels::ClothMesh& mesh, std::int64_t k, std::vector<std::
 /// and only those coloured.
 void expect_valid_colouring(ModelFixture& f) {
   const kernels::ClothMesh& mesh = f.sim.mesh();
-  const std::vector<int>& colour = f.objective.smoothing_colours();
+  const std::vector<std::int16_t>& colour = f.objective.smoothing_colours();
   ASSERT_EQ(colour.size(), static_cast<std::size_t>(mesh.slot_count()));
   int elements = 0;
   for (std::int64_t id = 0; id < 2 * mesh.slot_count(); ++id) {
@@ -135,7 +135,7 @@ TEST(NonlinearSmoothing, TheColouringIsKeptWhileTheMeshIsUnchangedAndMadeAgainAf
   ModelFixture f(c);
   f.run([&](kernels::LoopRunner& r) { f.objective.colour_for_smoothing(r); });
   expect_valid_colouring(f);  // the uniform mesh
-  const std::vector<int> uniform = f.objective.smoothing_colours();
+  const std::vector<std::int16_t> uniform = f.objective.smoothing_colours();
   testing::randomise_state(f.sim, 4);  // positions do not change the topology
   f.run([&](kernels::LoopRunner& r) { f.objective.colour_for_smoothing(r); });
   EXPECT_EQ(f.objective.smoothing_colours(), uniform);

@@ -166,6 +166,39 @@ TEST(SlotPages, UnusedRunsAreTheMaximalRunsOfSlotsNeitherParticleNorGhost) {
   EXPECT_EQ(kernels::unused_slot_runs(mesh), (SlotRuns{{0, 5}}));
 }
 
+TEST(SlotPages, SharedElementRunsHoldExactlyTheElementsNeitherUseTouchesAtASlotInUse) {
+  // An array of max(a, b) x slots elements read with a elements a slot by one use and b by the
+  // other (NewtonSystem's residual in edge_scratch: 2 and 3). Every set of unused runs of a
+  // 12-slot mesh, by brute force.
+  constexpr std::int64_t kSlots = 12;
+  for (const auto& [a, b] : {std::pair<std::int64_t, std::int64_t>{2, 3}, {3, 2}, {6, 3}, {2, 2}}) {
+    for (std::uint32_t mask = 0; mask < (1u << kSlots); mask += 7) {
+      SlotRuns runs;
+      for (std::int64_t s = 0; s < kSlots; ++s) {
+        if ((mask >> s & 1u) == 0) continue;  // in use
+        if (!runs.empty() && runs.back().second == s) {
+          ++runs.back().second;
+        } else {
+          runs.emplace_back(s, s + 1);
+        }
+      }
+      auto unused = [&](std::int64_t slot) { return slot >= kSlots || (mask >> slot & 1u) != 0; };
+      const std::int64_t end = std::max(a, b) * kSlots;
+      std::vector<char> expected(static_cast<std::size_t>(end)), got(expected.size());
+      for (std::int64_t e = 0; e < end; ++e) expected[e] = unused(e / a) && unused(e / b);
+      const SlotRuns shared = kernels::shared_element_runs(runs, kSlots, a, b);
+      for (std::size_t k = 0; k < shared.size(); ++k) {
+        ASSERT_LT(shared[k].first, shared[k].second);
+        if (k > 0) {
+          ASSERT_LT(shared[k - 1].second, shared[k].first) << "runs touch or overlap";
+        }
+        for (std::int64_t e = shared[k].first; e < shared[k].second; ++e) got[e] = 1;
+      }
+      ASSERT_EQ(got, expected) << "a " << a << ", b " << b << ", unused mask " << mask;
+    }
+  }
+}
+
 TEST(SlotPages, OnlyWholePagesInsideARunGoBackAndReadZero) {
 #if defined(__linux__)
   const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
