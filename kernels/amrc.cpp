@@ -270,13 +270,7 @@ void AdaptiveMesh::write_mesh(ClothMesh& mesh) const {
         const std::int64_t id = element_id(s, d);
         const std::int32_t n = mesh.next[id], p = mesh.prev[id];
         const bool triple = active && n >= 0 && p >= 0;
-        mesh.triple_active[id] = triple ? 1 : 0;
-        mesh.triple_rest[id] = mesh.triple_width[id] = 0.0f;
-        if (triple) {
-          const std::int64_t before = element_id(p, d);
-          mesh.triple_rest[id] = 0.5f * (mesh.edge_rest[before] + mesh.edge_rest[id]);
-          mesh.triple_width[id] = 0.5f * (mesh.edge_width[before] + mesh.edge_width[id]);
-        }
+        mesh.triple_active[id] = triple ? 1 : 0;  // its rest spacing and width follow its edges
       }
       if (!active) {
         mesh.mass[s] = 0.0;

@@ -45,8 +45,6 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
   triple_active.assign(static_cast<std::size_t>(2 * n), 0);
   edge_rest.assign(static_cast<std::size_t>(2 * n), 0.0f);
   edge_width.assign(static_cast<std::size_t>(2 * n), 0.0f);
-  triple_rest.assign(static_cast<std::size_t>(2 * n), 0.0f);
-  triple_width.assign(static_cast<std::size_t>(2 * n), 0.0f);
 
   // Uniform finest mesh: every grid neighbour is a node.
   for (int i = 0; i < size_i_; ++i) {
@@ -111,10 +109,6 @@ void ClothMesh::update_reference_geometry() {
       }
       const bool has_triple = active && next[id] >= 0 && prev[id] >= 0;
       triple_active[id] = has_triple ? 1 : 0;
-      if (has_triple) {
-        triple_rest[id] = static_cast<float>(extent[d]);
-        triple_width[id] = static_cast<float>(extent[other]);
-      }
     }
   }
 }

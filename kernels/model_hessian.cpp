@@ -114,22 +114,23 @@ void ModelHessian::assemble_elements(LoopRunner& run, const StepContext& ctx, bo
     if (t.curvature > 0.0 && t.moment > 0.0) {
       slope = std::max(slope, std::min(t.moment / t.curvature, zero_slope));
     }
+    const double rest = mesh.triple_rest(id), width = mesh.triple_width(id);
     if (reach) {
       const TripleTerm far = triple_term(ctx, id, reached);
       const double delta = far.curvature - t.curvature;
-      if (std::abs(delta) * mesh.triple_rest[id] > kReachChange) {
+      if (std::abs(delta) * rest > kReachChange) {
         const double secant = (far.moment - t.moment) / delta;
         slope = std::max(slope, secant);
         along = std::max(along, secant);
       }
     }
-    double c = mesh.triple_width[id] * std::max(slope, 0.0) / mesh.triple_rest[id];
+    double c = width * std::max(slope, 0.0) / rest;
     c = std::max(c, kStiffnessMemory * bending_[id]);
     bending_[id] = static_cast<float>(c);
     double c_along = c;
     if (!floor_along) {
-      c_along = std::max(mesh.triple_width[id] * std::max(along, 0.0) / mesh.triple_rest[id],
-                         kStiffnessMemory * bending_along_[id]);
+      c_along =
+          std::max(width * std::max(along, 0.0) / rest, kStiffnessMemory * bending_along_[id]);
       c_along = std::min(c_along, c);
     }
     bending_along_[id] = static_cast<float>(c_along);

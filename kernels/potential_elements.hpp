@@ -175,7 +175,7 @@ inline TripleTerm triple_term(const StepContext& ctx, std::int64_t id, const Pos
   const Eigen::Vector3d e1 = xc - x(a), e2 = x(b) - xc;
   TripleTerm term;
   term.angle = turning_angle<double>(e1, e2);
-  const double rest = mesh.triple_rest[id], width = mesh.triple_width[id];
+  const double rest = mesh.triple_rest(id), width = mesh.triple_width(id);
   term.curvature = term.angle.theta / rest;
   const ReturnMapped r =
       fast_return_map(ctx.material.bending[element_direction(id)], ctx.state.triple_moment[id],

@@ -122,7 +122,7 @@ Eigen::Matrix3d PotentialObjective::diagonal_block(std::int64_t s, ObstacleMask 
     const Eigen::Vector3d ga = -t.angle.a * e1 + t.angle.bc * e2;
     const Eigen::Vector3d gb = -t.angle.bc * e1 + t.angle.c * e2;
     const Eigen::Vector3d grad = role == 0 ? ga : role == 2 ? gb : Eigen::Vector3d(-(ga + gb));
-    h += mesh.triple_width[id] * t.slope / mesh.triple_rest[id] * grad * grad.transpose();
+    h += mesh.triple_width(id) * t.slope / mesh.triple_rest(id) * grad * grad.transpose();
   };
   for (int d = 0; d < 2; ++d) {
     const std::int64_t id = element_id(s, d);

@@ -444,8 +444,7 @@ std::size_t Simulation::memory_bytes() const {
   b += mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
   b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
   b += mesh_.edge_active.capacity() + mesh_.triple_active.capacity();
-  b += (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity() + mesh_.triple_rest.capacity() +
-        mesh_.triple_width.capacity()) * 4;
+  b += (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity()) * 4;
   return b;
 }
 
@@ -454,9 +453,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
                  static_cast<std::size_t>(config.cloth.particles_j);
   // Per slot: state 7 vectors x 24 B + 24 B preconditioner + 8 B contact; per element id
   // (2 per slot) 5 doubles of forces and scratch; mesh: 1 B flags, 8 B mass, per id 8 B
-  // neighbours, 2 B flags, 16 B geometry (the grid map is computed, ClothMesh::slot); lists
+  // neighbours, 2 B flags, 8 B geometry (the grid map and the triples' geometry are computed,
+  // ClothMesh::slot, triple_rest); lists
   // 24 B; the AMRC tree 2 B.
-  const std::size_t per_slot = 7 * 24 + 24 + 8 + 2 * 5 * 8 + 1 + 8 + 2 * (8 + 2 + 16) + 24 + 2;
+  const std::size_t per_slot = 7 * 24 + 24 + 8 + 2 * 5 * 8 + 1 + 8 + 2 * (8 + 2 + 8) + 24 + 2;
   const Preconditioner kind = resolved_preconditioner(config.solver);
   const std::size_t lines =
       kind == Preconditioner::line_solves || kind == Preconditioner::multigrid

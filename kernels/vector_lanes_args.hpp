@@ -29,8 +29,8 @@ inline EdgeLanesArgs edge_lanes_args(const ClothMesh& mesh, ClothState& state,
 inline TripleLanesArgs triple_lanes_args(const ClothMesh& mesh, ClothState& state,
                                          const FabricMaterial& material) {
   TripleLanesArgs args{state.position.data(),           mesh.prev.data(),
-                       mesh.next.data(),                mesh.triple_rest.data(),
-                       mesh.triple_width.data(),        state.triple_moment.data(),
+                       mesh.next.data(),                mesh.edge_rest.data(),
+                       mesh.edge_width.data(),          state.triple_moment.data(),
                        state.triple_offloading.data(),  state.triple_scratch.data(),
                        {},                              {}};
   for (int d = 0; d < 2; ++d) {

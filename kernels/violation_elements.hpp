@@ -160,7 +160,7 @@ inline TripleViolation triple_violation(const StepContext& ctx, std::int64_t id,
   tv.e2 = x(mesh.next[id]) - xc;
   tv.angle = turning_angle<double>(tv.e1, tv.e2);
   tv.band = band_violation(ctx.material.bending[element_direction(id)], moment,
-                           tv.angle.theta / mesh.triple_rest[id]);
+                           tv.angle.theta / mesh.triple_rest(id));
   return tv;
 }
 
@@ -180,7 +180,7 @@ inline Eigen::Vector3d newton_residual(const StepContext& ctx, std::int64_t s, c
     const Eigen::Vector3d xc = x(element_slot(id));
     const TurningAngle<double> t =
         turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc);
-    return Eigen::Vector3d(mesh.triple_width[id] * moment(id) * Eigen::Vector3d(t.a, t.bc, t.c));
+    return Eigen::Vector3d(mesh.triple_width(id) * moment(id) * Eigen::Vector3d(t.a, t.bc, t.c));
   };
   Eigen::Vector3d r = m / (dt * dt) * (x(s) - vec3(ctx.state.target, s)) -
                       m * ctx.config.time.gravity + gather_elastic(mesh, s, x, edge, triple);

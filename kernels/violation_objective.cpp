@@ -87,7 +87,7 @@ void ViolationObjective::element_loops(LoopRunner& run, TilePartials<ScalarSum>*
       ElementKind::triples, triple_partials, triple_bytes, [&](std::int64_t id, ScalarSum& acc) {
         const double moment = st.triple_moment[id];
         const TripleViolation tv = triple_violation(ctx_, id, x, moment);
-        const double wm = mesh.triple_width[id] * moment;
+        const double wm = mesh.triple_width(id) * moment;
         double* k = &st.triple_scratch[3 * id];
         k[0] = wm * tv.angle.a;
         k[1] = wm * tv.angle.bc;
@@ -97,7 +97,7 @@ void ViolationObjective::element_loops(LoopRunner& run, TilePartials<ScalarSum>*
         acc.value += ratio * ratio;
         const double c = scales_.bend * 2.0 * tv.band.value / (ref * ref);
         vs_.triple_band[2 * id] = c * tv.band.d_force;
-        vs_.triple_band[2 * id + 1] = c * tv.band.d_strain / mesh.triple_rest[id];
+        vs_.triple_band[2 * id + 1] = c * tv.band.d_strain / mesh.triple_rest(id);
       });
 }
 
@@ -235,7 +235,7 @@ Evaluation ViolationObjective::evaluate(LoopRunner& run) {
               gb[k] = db.v;
               hb[k] = db.d;
             }
-            const double w = mesh.triple_width[id], wm = w * st.triple_moment[id];
+            const double w = mesh.triple_width(id), wm = w * st.triple_moment[id];
             const double band = vs_.triple_band[2 * id + 1];
             gm += w * (ra.dot(ga) - rc.dot(ga + gb) + rb.dot(gb));
             position.col(0) = wm * ha + band * ga;
@@ -361,7 +361,7 @@ Eigen::Matrix3d ViolationObjective::diagonal_block(std::int64_t s, ObstacleMask 
     const Eigen::Vector3d gb = -tv.angle.bc * tv.e1 + tv.angle.c * tv.e2;
     const Eigen::Vector3d grad = role == 0 ? ga : role == 2 ? gb : Eigen::Vector3d(-(ga + gb));
     const double slope =
-        tv.band.d_strain / (scales_.moment[element_direction(id)] * mesh.triple_rest[id]);
+        tv.band.d_strain / (scales_.moment[element_direction(id)] * mesh.triple_rest(id));
     block += 2.0 * scales_.bend * slope * slope * grad * grad.transpose();
   };
   for (int d = 0; d < 2; ++d) {
@@ -463,7 +463,7 @@ void ViolationObjective::refresh_preconditioner(LoopRunner& run) {
     if (!tv.angle.degenerate) {
       const Eigen::Vector3d ga = -tv.angle.a * tv.e1 + tv.angle.bc * tv.e2;
       const Eigen::Vector3d gb = -tv.angle.bc * tv.e1 + tv.angle.c * tv.e2;
-      const double w = mesh.triple_width[id];
+      const double w = mesh.triple_width(id);
       diagonal += w * w *
                   (newton_weight(mesh.prev[id]) * ga.squaredNorm() +
                    newton_weight(element_slot(id)) * (ga + gb).squaredNorm() +

@@ -43,8 +43,10 @@ struct TripleLanesArgs {
   const double* position;
   const std::int32_t* prev;
   const std::int32_t* next;
-  const float* rest;
-  const float* width;
+  /// The edges' rest lengths and widths per element id (m): a triple's are the means of its
+  /// two edges' (ClothMesh::triple_rest, triple_width).
+  const float* edge_rest;
+  const float* edge_width;
   const double* previous_moment;  ///< per element id, N
   const double* offloading;       ///< 2 per element id: bending_offloading's {plateau, unloading}
   double* coefficients;           ///< out, 3 per element id: w M (A, Bc, C)

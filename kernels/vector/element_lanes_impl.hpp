@@ -55,6 +55,16 @@ struct Lanes {
       previous[l] = previous_of[id];
       direction[l] = static_cast<double>(id % 2);
     }
+    /// A triple's: its rest spacing and width are the means of its two edges' (in float, as
+    /// ClothMesh::triple_rest and triple_width form them), `before` the id of the edge into its
+    /// centre.
+    void gather_triple(int l, std::int64_t id, std::int64_t before, const float* edge_rest,
+                       const float* edge_width, const double* previous_of) {
+      rest[l] = 0.5f * (edge_rest[before] + edge_rest[id]);
+      width[l] = 0.5f * (edge_width[before] + edge_width[id]);
+      previous[l] = previous_of[id];
+      direction[l] = static_cast<double>(id % 2);
+    }
   };
 
   /// ReturnMapped of potential_elements.hpp without the slope: force (moment) and potential.
@@ -238,7 +248,8 @@ struct Lanes {
         const std::int64_t id = ids[g + (l < live ? l : live - 1)];
         gather_difference(args.position, args.prev[id], id / 2, l, e1x, e1y, e1z);
         gather_difference(args.position, id / 2, args.next[id], l, e2x, e2y, e2z);
-        in.gather(l, id, args.rest, args.width, args.previous_moment);
+        in.gather_triple(l, id, 2 * std::int64_t{args.prev[id]} + id % 2, args.edge_rest,
+                         args.edge_width, args.previous_moment);
         plateau_base[l] = args.offloading[2 * id];
         unloading_base[l] = args.offloading[2 * id + 1];
       }

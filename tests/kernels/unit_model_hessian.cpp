@@ -199,7 +199,7 @@ TEST(ModelHessian, BendingStiffnessIsAtLeastTheSecantFromZeroCurvature) {
     const kernels::TripleTerm t = kernels::triple_term(f.ctx, id, x);
     const auto& band = f.sim.material().bending[kernels::element_direction(id)];
     const double at_zero = band.curves(std::numeric_limits<double>::min()).upper_slope;
-    const double scale = mesh.triple_width[id] / mesh.triple_rest[id];
+    const double scale = mesh.triple_width(id) / mesh.triple_rest(id);
     const double model = f.objective.model_hessian()->bending_stiffness(id);
     if (t.curvature > 3.0 * band.kappa0) {
       ASSERT_NEAR(t.moment, band.loading(t.curvature), 1e-12 * t.moment) << "loading branch";
@@ -251,7 +251,7 @@ TEST(ModelHessian, ReleasedBendingFloorLeavesOnlyTheBandSlopeAlongTheTurningVect
     EXPECT_EQ(h0.bending_stiffness(id), h1.bending_stiffness(id)) << "triple " << id;
     EXPECT_EQ(h0.bending_along(id), h0.bending_stiffness(id)) << "triple " << id;
     const kernels::TripleTerm t = kernels::triple_term(released.ctx, id, x);
-    const double scale = mesh.triple_width[id] / mesh.triple_rest[id];
+    const double scale = mesh.triple_width(id) / mesh.triple_rest(id);
     if (t.curvature > 3.0 * released.sim.material().bending[0].kappa0) {
       EXPECT_NEAR(h1.bending_along(id), scale * t.slope, kStored * scale * t.slope) << id;
       EXPECT_LT(h1.bending_along(id), 0.99 * h1.bending_stiffness(id)) << "triple " << id;

@@ -78,7 +78,7 @@ void spread_history(kernels::Simulation& sim, unsigned seed) {
       const Eigen::Vector3d xc = x(s);
       const double kappa =
           kernels::turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc).theta /
-          mesh.triple_rest[id];
+          mesh.triple_rest(id);
       const kernels::BandCurves c = sim.material().bending[d].curves(kappa);
       // Below the unloading curve where it is positive (id % 3 == 1), else around the band.
       st.triple_moment[id] = id % 3 == 0                    ? 0.0
@@ -116,7 +116,7 @@ RegimeCounts triple_regimes(const kernels::Simulation& sim) {
     const Eigen::Vector3d xc = x(id / 2);
     const double kappa =
         kernels::turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc).theta /
-        mesh.triple_rest[id];
+        mesh.triple_rest(id);
     const kernels::BandCurves c = sim.material().bending[id % 2].curves(kappa);
     const double prev = st.triple_moment[id];
     if (!(kappa > 0.0)) ++r.zero;
@@ -272,7 +272,7 @@ void compare(kernels::Simulation& ref, kernels::Simulation& vec, const std::stri
         const auto angle =
             kernels::turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc);
         const double upper =
-            mesh.triple_width[id] * ref.material().bending[d].curves(angle.theta / mesh.triple_rest[id]).upper;
+            mesh.triple_width(id) * ref.material().bending[d].curves(angle.theta / mesh.triple_rest(id)).upper;
         const double coefficient[3] = {angle.a, angle.bc, angle.c};
         for (int c = 0; c < 3; ++c) {
           const double r = relative_difference(st.triple_scratch[3 * id + c], triple_ref[3 * id + c],

@@ -133,7 +133,7 @@ struct Harness {
         const Eigen::Vector3d xc = xs(element_slot(id));
         const double theta =
             turning_angle<double>(xc - xs(mesh.prev[id]), xs(mesh.next[id]) - xc).theta;
-        const BandCurves c = sim.material().bending[d].curves(theta / mesh.triple_rest[id]);
+        const BandCurves c = sim.material().bending[d].curves(theta / mesh.triple_rest(id));
         st.triple_moment[id] = pick_force(c, 0.2 * scales.moment[d], rng);
       }
     }
@@ -192,7 +192,7 @@ struct Harness {
         const Eigen::Vector3d xc = x(element_slot(id));
         const double kappa =
             turning_angle<double>(xc - x(mesh.prev[id]), x(mesh.next[id]) - xc).theta /
-            mesh.triple_rest[id];
+            mesh.triple_rest(id);
         if (std::abs(kappa - sim.material().bending[d].unloading_onset) < 1e-2 || kappa < 1e-2) {
           out << "triple " << id << " kink\n";
         }
