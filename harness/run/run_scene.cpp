@@ -16,6 +16,7 @@
 #include "harness/predict/trace_models.hpp"
 #include "harness/report/cloth_picture.hpp"
 #include "harness/report/sweep_plots.hpp"
+#include "harness/run/resident_memory.hpp"
 #include "harness/run/run_summary.hpp"
 #include "harness/run/verify.hpp"
 #include "harness/scene/scene.hpp"
@@ -72,6 +73,8 @@ nlohmann::json check_trace_options(const RunOptions& options, int steps) {
 }  // namespace
 
 std::uint64_t peak_resident_bytes() {
+  // The same high-water mark as each step's record (VmHWM), getrusage's where /proc is absent.
+  if (const auto now = read_resident_memory()) return now->peak_bytes;
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports KiB

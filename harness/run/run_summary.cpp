@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "harness/output/atomic_file.hpp"
+#include "harness/run/resident_memory.hpp"
 
 namespace clothbench::harness {
 
@@ -72,6 +73,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
     const kernels::StepReport report =
         simulation.step(driver, kernels::Instrumentation::off, nullptr, trace);
     const kernels::MinimiserReport& m = report.minimiser;
+    const ResidentMemory resident = read_resident_memory().value_or(ResidentMemory{});
     StepRecord record{report.step,
                       m.iterations,
                       m.linear_iterations,
@@ -82,7 +84,10 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                       kernels::to_string(m.reason),
                       report.seconds,
                       report.active_elements,
-                      report.sub_steps};
+                      report.sub_steps,
+                      resident.current_bytes,
+                      resident.peak_bytes,
+                      simulation.memory_bytes()};
     summary.steps.push_back(record);
     summary.wall_seconds += report.seconds;
     summary.total_iterations += m.iterations;
@@ -239,6 +244,7 @@ void print_summary(const RunSummary& s) {
 }
 
 nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::string& scheduler) {
+  auto known = [](std::uint64_t bytes) { return bytes > 0 ? nlohmann::json(bytes) : nlohmann::json(); };
   nlohmann::json steps = nlohmann::json::array();
   for (const StepRecord& r : s.steps) {
     steps.push_back({{"step", r.step},
@@ -251,7 +257,10 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                      {"stop", r.stop},
                      {"seconds", r.seconds},
                      {"active_elements", r.active_elements},
-                     {"sub_steps", r.sub_steps}});
+                     {"sub_steps", r.sub_steps},
+                     {"resident_bytes", known(r.resident_bytes)},
+                     {"peak_resident_bytes", known(r.peak_resident_bytes)},
+                     {"simulation_bytes", r.simulation_bytes}});
   }
   const kernels::StateDiagnostics& d = s.final_state;
   // After a non-finite value the state's figures are null (the failure says where it began).

@@ -30,6 +30,12 @@ struct StepRecord {
   double seconds = 0.0;
   std::int64_t active_elements = 0;
   int sub_steps = 1;  ///< accepted sub-steps (rejected steps are redone with half the length)
+  /// The process's resident set when the step ended and its high-water mark then (VmRSS and
+  /// VmHWM; 0 where /proc cannot be read, null in the JSON), and the simulation's own allocated
+  /// bytes (kernels::Simulation::memory_bytes): the step whose high-water mark rises set it.
+  std::uint64_t resident_bytes = 0;
+  std::uint64_t peak_resident_bytes = 0;
+  std::uint64_t simulation_bytes = 0;
 };
 
 /// A scripted scene event as the run applied it.
@@ -118,7 +124,7 @@ nlohmann::json summary_json(const RunSummary& summary, const Scene& scene,
                             const std::string& scheduler);
 /// The current cloth surface with contact force and mesh level per point.
 SurfaceMesh surface_mesh(const kernels::Simulation& simulation);
-/// Peak resident set size of this process (bytes).
+/// Peak resident set size of this process (bytes): VmHWM, as in each step's record.
 std::uint64_t peak_resident_bytes();
 /// Thread count to use: `requested` (>0) or the OpenMP default; throws std::invalid_argument
 /// naming `flag` when it exceeds the hardware threads and oversubscription is not allowed.

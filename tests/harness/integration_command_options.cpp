@@ -357,6 +357,33 @@ TEST_F(CommandOptions, RunNewtonLogWritesEveryNewtonIterationOfEveryStep) {
   EXPECT_EQ(row, rows.size());
 }
 
+TEST_F(CommandOptions, RunSummaryRecordsEachStepsResidentMemory) {
+  Outcome o;
+  const json summary = tiny_run(fresh_dir("step-memory"), "", o);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  ASSERT_EQ(summary["steps"].size(), 2u);
+  constexpr std::uint64_t kCounterSlack = 1u << 20;
+  std::uint64_t peak_before = 0;
+  for (const json& step : summary["steps"]) {
+    // This machine has /proc: every figure is known. The high-water mark is at least the
+    // resident set of the same reading and does not fall (up to the kernel's per-CPU counters,
+    // which are approximate by a few hundred KiB); the simulation holds at least its cloth's
+    // positions (21 x 21 particles, 3 doubles each).
+    ASSERT_TRUE(step["resident_bytes"].is_number_unsigned()) << step.dump();
+    ASSERT_TRUE(step["peak_resident_bytes"].is_number_unsigned()) << step.dump();
+    const auto resident = step["resident_bytes"].get<std::uint64_t>();
+    const auto peak = step["peak_resident_bytes"].get<std::uint64_t>();
+    EXPECT_GT(resident, 0u) << step.dump();
+    EXPECT_GE(peak, resident) << step.dump();
+    EXPECT_GE(peak + kCounterSlack, peak_before) << step.dump();
+    EXPECT_GE(step["simulation_bytes"].get<std::uint64_t>(), 21u * 21u * 3u * 8u) << step.dump();
+    peak_before = peak;
+  }
+  // The run's peak is taken after its last step.
+  EXPECT_GE(summary["memory"]["peak_resident_bytes"].get<std::uint64_t>() + kCounterSlack,
+            peak_before);
+}
+
 TEST_F(CommandOptions, RunNewtonLogIsRefusedUnderNonlinearCg) {
   const fs::path out = fresh_dir("newton-log-cg");
   Outcome o;
