@@ -244,7 +244,9 @@ void print_summary(const RunSummary& s) {
 }
 
 nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::string& scheduler) {
-  auto known = [](std::uint64_t bytes) { return bytes > 0 ? nlohmann::json(bytes) : nlohmann::json(); };
+  auto known = [](std::uint64_t bytes) {
+    return bytes > 0 ? nlohmann::json(bytes) : nlohmann::json();
+  };
   nlohmann::json steps = nlohmann::json::array();
   for (const StepRecord& r : s.steps) {
     steps.push_back({{"step", r.step},
