@@ -193,7 +193,7 @@ std::size_t Simulation::after_mesh_change() {
 }
 
 std::size_t Simulation::release_unused_pages() {
-  const SlotRuns runs = unused_slot_runs(mesh_);
+  const SlotRuns runs = unused_slot_runs(mesh_, shortest_releasable_run(kLargestReleasedSlotBytes));
   // An unused slot's mass is 0 and stays 0 when its page comes back as zeros. The lists (when
   // built) were rebuilt for this mesh already.
   return state_.release_unused(runs) + objective_->release_unused(runs) +

@@ -10,7 +10,7 @@
 
 namespace clothbench::kernels {
 
-SlotRuns unused_slot_runs(const ClothMesh& mesh) {
+SlotRuns unused_slot_runs(const ClothMesh& mesh, std::int64_t shortest) {
   SlotRuns runs;
   const std::int64_t slots = mesh.slot_count();
   std::int64_t first = -1;
@@ -18,12 +18,23 @@ SlotRuns unused_slot_runs(const ClothMesh& mesh) {
     const bool unused = !is_node(mesh.flags[static_cast<std::size_t>(s)]);
     if (unused && first < 0) first = s;
     if (!unused && first >= 0) {
-      runs.emplace_back(first, s);
+      if (s - first >= shortest) runs.emplace_back(first, s);
       first = -1;
     }
   }
-  if (first >= 0) runs.emplace_back(first, slots);
+  if (first >= 0 && slots - first >= shortest) runs.emplace_back(first, slots);
   return runs;
+}
+
+std::int64_t shortest_releasable_run(std::size_t slot_bytes) {
+#if defined(__linux__) && defined(MADV_DONTNEED)
+  static const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  return static_cast<std::int64_t>(
+      std::max<std::size_t>(1, page / std::max<std::size_t>(1, slot_bytes)));
+#else
+  (void)slot_bytes;
+  return 1;
+#endif
 }
 
 std::size_t release_slot_pages(void* data, std::size_t element_bytes, std::size_t per_slot,

@@ -164,6 +164,35 @@ TEST(SlotPages, UnusedRunsAreTheMaximalRunsOfSlotsNeitherParticleNorGhost) {
   EXPECT_TRUE(kernels::unused_slot_runs(mesh).empty());
   mesh.flags.assign(5, 0);
   EXPECT_EQ(kernels::unused_slot_runs(mesh), (SlotRuns{{0, 5}}));
+  // Runs shorter than `shortest` are left out, the rest kept whole.
+  mesh.flags = {0, 0, active, ghost, 0, pinned, active, 0, 0, 0};
+  EXPECT_EQ(kernels::unused_slot_runs(mesh, 2), (SlotRuns{{0, 2}, {7, 10}}));
+  EXPECT_EQ(kernels::unused_slot_runs(mesh, 3), (SlotRuns{{7, 10}}));
+  EXPECT_TRUE(kernels::unused_slot_runs(mesh, 4).empty());
+}
+
+TEST(SlotPages, ARunShorterThanTheShortestReleasableHandsBackNoPage) {
+  // Wherever it starts, a run one slot shorter than shortest_releasable_run(B) holds no whole
+  // page of an array of B bytes a slot, nor of one with fewer bytes a slot; a run of that many
+  // slots can (released pages are whole pages inside the run).
+  for (const std::size_t slot_bytes :
+       {std::size_t{8}, std::size_t{48}, kernels::kLargestReleasedSlotBytes}) {
+    const std::int64_t shortest = kernels::shortest_releasable_run(slot_bytes);
+    ASSERT_GE(shortest, 1);
+#if defined(__linux__)
+    const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    EXPECT_LE(static_cast<std::size_t>(shortest) * slot_bytes, page) << slot_bytes;
+    EXPECT_GT(static_cast<std::size_t>(shortest + 1) * slot_bytes, page) << slot_bytes;
+    const std::size_t doubles = slot_bytes / sizeof(double);
+    std::vector<double> values(doubles * static_cast<std::size_t>(8 * shortest), 1.0);
+    for (std::int64_t first = 0; first < 4 * shortest; first += 7) {
+      const SlotRuns runs{{first, first + shortest - 1}};
+      EXPECT_EQ(kernels::release_slot_pages(values, doubles, runs), 0u) << first;
+      EXPECT_EQ(kernels::release_slot_pages(values, 1, runs), 0u) << first;
+    }
+    for (const double v : values) ASSERT_EQ(v, 1.0);
+#endif
+  }
 }
 
 TEST(SlotPages, SharedElementRunsHoldExactlyTheElementsNeitherUseTouchesAtASlotInUse) {
