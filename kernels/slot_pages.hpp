@@ -22,14 +22,14 @@ namespace clothbench::kernels {
 using SlotRuns = std::vector<std::pair<std::int64_t, std::int64_t>>;
 SlotRuns unused_slot_runs(const ClothMesh& mesh, std::int64_t shortest = 1);
 
-/// The most bytes a slot that any array handed back by Simulation holds (ClothState's
-/// triple_scratch: 6 doubles, 48 bytes; see ClothState::release_unused).
+/// A bound on the bytes a slot of any array that Simulation hands back holds (the largest,
+/// ClothState's triple_scratch, has 6 doubles: 48 bytes; see ClothState::release_unused).
 constexpr std::size_t kLargestReleasedSlotBytes = 64;
 /// The fewest slots of `slot_bytes` each that can hold a whole page (1 where pages are not
 /// handed back): a shorter run hands back no page of an array of at most that many bytes a
 /// slot. Leaving such runs out keeps the list short on a graded mesh, where most unused runs
-/// are a slot or a few long (every second slot of a row at the first coarsening of the
-/// paper's box: 500,000 runs, 8 MB, and up to three times that in shared_element_runs).
+/// are a slot or a few long (every second slot of every second row at the first coarsening of
+/// the paper's box: about 250,000 runs, 4 MB, and 21 MB in shared_element_runs' copies).
 std::int64_t shortest_releasable_run(std::size_t slot_bytes);
 
 /// Hands back to the system the whole pages of `data` (an array of `per_slot` elements of
