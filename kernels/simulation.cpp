@@ -438,14 +438,20 @@ Simulation::VcycleWork Simulation::vcycle_work() const {
   return work;
 }
 
-std::size_t Simulation::memory_bytes() const {
-  std::size_t b = state_.memory_bytes() + lists_.memory_bytes() + objective_->memory_bytes();
-  if (amrc_) b += amrc_->memory_bytes();
-  b += mesh_.flags.capacity() + mesh_.mass.capacity() * 8;
-  b += (mesh_.next.capacity() + mesh_.prev.capacity()) * 4;
-  b += mesh_.edge_active.capacity() + mesh_.triple_active.capacity();
-  b += (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity()) * 4;
-  return b;
+Simulation::MemoryParts Simulation::memory_parts() const {
+  MemoryParts parts;
+  parts.mesh = mesh_.flags.capacity() + mesh_.mass.capacity() * 8 +
+               (mesh_.next.capacity() + mesh_.prev.capacity()) * 4 + mesh_.edge_active.capacity() +
+               mesh_.triple_active.capacity() +
+               (mesh_.edge_rest.capacity() + mesh_.edge_width.capacity()) * 4;
+  parts.state = state_.memory_bytes();
+  parts.lists = lists_.memory_bytes();
+  parts.amrc = amrc_ ? amrc_->memory_bytes() : 0;
+  const VcyclePreconditioner* v =
+      newton_objective_ == nullptr ? nullptr : newton_objective_->vcycle();
+  parts.vcycle = v == nullptr ? 0 : v->memory_bytes();
+  parts.solver = objective_->memory_bytes() - parts.vcycle;  // the objective counts its V-cycle
+  return parts;
 }
 
 std::size_t estimate_memory_bytes(const SimulationConfig& config) {

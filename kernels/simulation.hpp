@@ -165,8 +165,22 @@ class Simulation {
   /// Rebuilds the Active-Lists now (used by benchmarks); returns seconds.
   double rebuild_lists();
   [[nodiscard]] const ActiveLists* active_lists() const { return lists_built_ ? &lists_ : nullptr; }
-  /// Bytes held by mesh, state and lists.
-  [[nodiscard]] std::size_t memory_bytes() const;
+  /// Bytes held by each part of the simulation: the capacity of its arrays, pages handed back
+  /// to the system included (the resident set is the process's, run_summary.hpp).
+  struct MemoryParts {
+    std::size_t mesh = 0;    ///< flags, masses, neighbours, element flags and geometry
+    std::size_t state = 0;   ///< ClothState: positions, gradients, forces, scratch, breakpoints
+    std::size_t lists = 0;   ///< the Active-Lists
+    std::size_t amrc = 0;    ///< the AMRC tree and its marks
+    std::size_t solver = 0;  ///< the objective's own: model Hessian, line factors, PCG arrays
+    std::size_t vcycle = 0;  ///< the V-cycle's hierarchy (levels, Galerkin rows, factors)
+    [[nodiscard]] std::size_t total() const {
+      return mesh + state + lists + amrc + solver + vcycle;
+    }
+  };
+  [[nodiscard]] MemoryParts memory_parts() const;
+  /// Bytes held by the whole simulation (memory_parts().total()).
+  [[nodiscard]] std::size_t memory_bytes() const { return memory_parts().total(); }
   /// Active particles + edges + triples.
   [[nodiscard]] std::int64_t active_elements() const;
 

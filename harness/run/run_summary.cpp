@@ -19,6 +19,12 @@ std::string vector_text(const Eigen::Vector3d& v) {
   return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x(), v.y(), v.z());
 }
 
+/// The simulation's allocated bytes by part (kernels::Simulation::MemoryParts).
+nlohmann::json parts_json(const kernels::Simulation::MemoryParts& p) {
+  return {{"mesh", p.mesh}, {"state", p.state},   {"lists", p.lists},
+          {"amrc", p.amrc}, {"solver", p.solver}, {"vcycle", p.vcycle}};
+}
+
 /// The numeric settings the run's minimiser used, defaults resolved (a scene that says nothing
 /// about them runs the revision's defaults, which its text does not show).
 nlohmann::json solver_settings_json(const kernels::SolverConfig& solver) {
@@ -74,6 +80,7 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
         simulation.step(driver, kernels::Instrumentation::off, nullptr, trace);
     const kernels::MinimiserReport& m = report.minimiser;
     const ResidentMemory resident = read_resident_memory().value_or(ResidentMemory{});
+    const kernels::Simulation::MemoryParts parts = simulation.memory_parts();
     StepRecord record{report.step,
                       m.iterations,
                       m.linear_iterations,
@@ -87,7 +94,8 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
                       report.sub_steps,
                       resident.current_bytes,
                       resident.peak_bytes,
-                      simulation.memory_bytes()};
+                      parts.total(),
+                      parts};
     summary.steps.push_back(record);
     summary.wall_seconds += report.seconds;
     summary.total_iterations += m.iterations;
@@ -151,7 +159,8 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
   summary.average_minimised_cost =
       summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());
   summary.final_state = simulation.diagnostics();
-  summary.simulation_bytes = simulation.memory_bytes();
+  summary.simulation_parts = simulation.memory_parts();
+  summary.simulation_bytes = summary.simulation_parts.total();
   summary.contact_work = simulation.contact_work();
   summary.vcycle = simulation.vcycle_work();
   // The one verifier (verify.hpp) judges the final state; a non-finite value that stopped
@@ -262,7 +271,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                      {"sub_steps", r.sub_steps},
                      {"resident_bytes", known(r.resident_bytes)},
                      {"peak_resident_bytes", known(r.peak_resident_bytes)},
-                     {"simulation_bytes", r.simulation_bytes}});
+                     {"simulation_bytes", r.simulation_bytes},
+                     {"simulation_bytes_by_part", parts_json(r.simulation_parts)}});
   }
   const kernels::StateDiagnostics& d = s.final_state;
   // After a non-finite value the state's figures are null (the failure says where it began).
@@ -304,7 +314,9 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
         {"edges", d.active_edges},
         {"triples", d.active_triples}}},
       {"memory",
-       {{"simulation_bytes", s.simulation_bytes}, {"peak_resident_bytes", s.peak_resident_bytes}}},
+       {{"simulation_bytes", s.simulation_bytes},
+        {"simulation_bytes_by_part", parts_json(s.simulation_parts)},
+        {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},
       {"steps", steps}};
   if (!s.events.empty()) {

@@ -377,6 +377,16 @@ TEST_F(CommandOptions, RunSummaryRecordsEachStepsResidentMemory) {
     EXPECT_GE(peak, resident) << step.dump();
     EXPECT_GE(peak + kCounterSlack, peak_before) << step.dump();
     EXPECT_GE(step["simulation_bytes"].get<std::uint64_t>(), 21u * 21u * 3u * 8u) << step.dump();
+    // The parts add up to the whole; the state and the mesh are never empty.
+    const json& parts = step["simulation_bytes_by_part"];
+    std::uint64_t sum = 0;
+    for (const char* part : {"mesh", "state", "lists", "amrc", "solver", "vcycle"}) {
+      ASSERT_TRUE(parts[part].is_number_unsigned()) << part << ": " << step.dump();
+      sum += parts[part].get<std::uint64_t>();
+    }
+    EXPECT_EQ(sum, step["simulation_bytes"].get<std::uint64_t>()) << step.dump();
+    EXPECT_GE(parts["state"].get<std::uint64_t>(), 21u * 21u * 3u * 8u) << step.dump();
+    EXPECT_GT(parts["mesh"].get<std::uint64_t>(), 0u) << step.dump();
     peak_before = peak;
   }
   // The run's peak is taken after its last step.
