@@ -2,6 +2,7 @@
 #include "kernels/cloth_mesh.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 
@@ -19,7 +20,19 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
   const std::int64_t n = static_cast<std::int64_t>(size_i_) * size_j_;
   if (n > INT32_MAX / 2) throw std::invalid_argument("ClothMesh: too many particles");
 
-  // Blocks in row-major block order; inside a block, particles row by row (one tile per row).
+  // Inside each block row, the rows coarsest first (row_order); slot() and grid_of() read it.
+  row_place_.resize(static_cast<std::size_t>(size_i_));
+  row_at_.resize(static_cast<std::size_t>(size_i_));
+  for (int i0 = 0; i0 < size_i_; i0 += block_size_) {
+    const std::vector<int> order = row_order(i0, std::min(size_i_, i0 + block_size_));
+    for (std::size_t r = 0; r < order.size(); ++r) {
+      row_at_[static_cast<std::size_t>(i0) + r] = order[r];
+      row_place_[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
+    }
+  }
+
+  // Blocks in row-major block order; inside a block, particles row by row in that order (one
+  // tile per row).
   const int blocks_i = (size_i_ + block_size_ - 1) / block_size_;
   const int blocks_j = (size_j_ + block_size_ - 1) / block_size_;
   std::int64_t next_slot = 0;
@@ -28,7 +41,7 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
     for (int bj = 0; bj < blocks_j; ++bj) {
       const int i0 = bi * block_size_, i1 = std::min(size_i_, i0 + block_size_);
       const int j0 = bj * block_size_, j1 = std::min(size_j_, j0 + block_size_);
-      for (int i = i0; i < i1; ++i) {
+      for (int i = i0; i < i1; ++i) {  // the block's rows in storage order
         tile_slot_begin.push_back(next_slot);
         next_slot += j1 - j0;  // slot(i, j) = the tile's first slot + j - j0
       }
@@ -58,6 +71,18 @@ ClothMesh::ClothMesh(const ClothConfig& cloth, double areal_density)
   }
   for (const auto& [pi, pj] : cloth.pinned) flags[slot(pi, pj)] |= kParticlePinned;
   update_reference_geometry();
+}
+
+std::vector<int> ClothMesh::row_order(int i0, int i1) {
+  // The power of two dividing i: its trailing zero bits (row 0 is on every lattice).
+  const auto coarseness = [](int i) {
+    return i == 0 ? 32 : std::countr_zero(static_cast<unsigned>(i));
+  };
+  std::vector<int> rows;
+  for (int i = i0; i < i1; ++i) rows.push_back(i);
+  std::stable_sort(rows.begin(), rows.end(),
+                   [&](int a, int b) { return coarseness(a) > coarseness(b); });
+  return rows;
 }
 
 void ClothMesh::update_reference_geometry() {

@@ -2,7 +2,12 @@
 // (MODEL.md sections 1 and 7, paper section 4.1 and Fig. 7).
 //
 // The finest I x J grid is cut into B x B particle blocks; each block's particles are stored
-// together, row by row. A particle's storage index is its *slot*. Every slot owns two edge
+// together, row by row, the rows of a block coarsest first: the rows on the lattice of the
+// largest power of two dividing their grid index come first (i = 0 mod 2^k before 2^(k-1)),
+// ties in grid order. So a coarse AMRC region's particles (every 2^L-th row) share a few
+// pages at the start of each block instead of touching most of them, and the pages of the
+// rows between them can go back to the system (slot_pages.hpp). A particle's storage index is
+// its *slot*. Every slot owns two edge
 // slots and two triple slots, one per grid direction d (0 = along i / warp, 1 = along j / weft):
 //   edge   2*slot+d : from the particle to the next node along direction d;
 //   triple 2*slot+d : centred on the particle, from the previous to the next node along d.
@@ -64,13 +69,19 @@ class ClothMesh {
     return static_cast<std::int64_t>(tile_slot_begin.size()) - 1;
   }
   /// Storage slot of grid point (i, j), from the blocked layout: the full block rows before
-  /// i's, the full blocks before j's in that block row, then row by row inside the block.
+  /// i's, the full blocks before j's in that block row, then row by row inside the block in
+  /// the block's row order (coarsest rows first, row_order()).
   [[nodiscard]] std::int32_t slot(int i, int j) const {
     const std::int64_t b = block_size_, i0 = i / block_size_ * b, j0 = j / block_size_ * b;
     const std::int64_t rows = std::min<std::int64_t>(size_i_ - i0, b);
     const std::int64_t width = std::min<std::int64_t>(size_j_ - j0, b);
-    return static_cast<std::int32_t>(i0 * size_j_ + j0 * rows + (i - i0) * width + (j - j0));
+    return static_cast<std::int32_t>(i0 * size_j_ + j0 * rows +
+                                     row_place_[static_cast<std::size_t>(i)] * width + (j - j0));
   }
+  /// The grid rows of a block row in storage order: the rows [i0, i1) sorted by the largest
+  /// power of two dividing each index (0 counts as divisible by every one), largest first, ties
+  /// in grid order. E.g. rows 0..9: 0 8 4 2 6 1 3 5 7 9.
+  static std::vector<int> row_order(int i0, int i1);
   /// Rest spacing of the finest grid along direction d (m).
   [[nodiscard]] double spacing(int d) const { return spacing_[d]; }
   /// Rest position of grid point (i, j) within the sheet, in sheet coordinates (m).
@@ -86,7 +97,8 @@ class ClothMesh {
     const std::int64_t j0 = in_row / (rows * b) * b;
     const std::int64_t width = std::min<std::int64_t>(size_j_ - j0, b);
     const std::int64_t in_block = in_row - j0 * rows;
-    return {static_cast<int>(i0 + in_block / width), static_cast<int>(j0 + in_block % width)};
+    return {row_at_[static_cast<std::size_t>(i0 + in_block / width)],
+            static_cast<int>(j0 + in_block % width)};
   }
   [[nodiscard]] int grid_i(std::int64_t s) const { return grid_of(s).first; }
   [[nodiscard]] int grid_j(std::int64_t s) const { return grid_of(s).second; }
@@ -131,6 +143,9 @@ class ClothMesh {
   int size_i_;
   int size_j_;
   int block_size_;
+  /// Per grid row i: its place among its block row's rows in storage order; per block row
+  /// start i0 and place r, the grid row stored there (row_at_[i0 + r]).
+  std::vector<std::int32_t> row_place_, row_at_;
   double spacing_[2];
   double areal_density_;
   std::int64_t ghost_count_ = 0;

@@ -61,21 +61,55 @@ TEST(SlotLayout, SlotAndGridCoordinatesAreInverseAndEveryTileIsOneRowOfOneBlock)
       }
     }
     // Blocks in row-major block order; each tile is one row of one block, its slots consecutive
-    // from the tile's first, left to right.
+    // from the tile's first, left to right; a block's tiles hold its rows coarsest first: the
+    // power of two dividing the row index never grows from one tile to the next, and rows of
+    // the same power follow in grid order.
     const int blocks_j = (nj + block - 1) / block;
     ASSERT_EQ(mesh.block_count(), static_cast<std::int64_t>((ni + block - 1) / block) * blocks_j);
+    const auto power = [](int i) { return i == 0 ? 1 << 30 : i & -i; };
     for (std::int64_t b = 0; b < mesh.block_count(); ++b) {
       const int i0 = static_cast<int>(b / blocks_j) * block,
                 j0 = static_cast<int>(b % blocks_j) * block;
       const int width = std::min(nj - j0, block);
+      ASSERT_EQ(mesh.block_tile_begin[b + 1] - mesh.block_tile_begin[b], std::min(ni - i0, block));
+      std::vector<char> row_seen(static_cast<std::size_t>(block), 0);
+      int before = -1;
       for (std::int64_t t = mesh.block_tile_begin[b]; t < mesh.block_tile_begin[b + 1]; ++t) {
-        const int i = i0 + static_cast<int>(t - mesh.block_tile_begin[b]);
+        const int i = mesh.grid_of(mesh.tile_slot_begin[t]).first;
+        ASSERT_TRUE(i >= i0 && i < i0 + block) << "tile " << t << " holds row " << i;
+        ASSERT_EQ(row_seen[static_cast<std::size_t>(i - i0)], 0) << "row " << i << " twice";
+        row_seen[static_cast<std::size_t>(i - i0)] = 1;
+        if (before >= 0) {
+          ASSERT_TRUE(power(before) > power(i) || (power(before) == power(i) && before < i))
+              << "row " << i << " stored after row " << before;
+        }
+        before = i;
         ASSERT_EQ(mesh.tile_slot_begin[t + 1] - mesh.tile_slot_begin[t], width) << "tile " << t;
         for (int k = 0; k < width; ++k) {
           ASSERT_EQ(mesh.slot(i, j0 + k), mesh.tile_slot_begin[t] + k)
               << "tile " << t << ", column " << k;
         }
       }
+    }
+  }
+}
+
+TEST(SlotLayout, RowOrderPutsEachCoarseLatticeFirst) {
+  EXPECT_EQ(kernels::ClothMesh::row_order(0, 10), (std::vector<int>{0, 8, 4, 2, 6, 1, 3, 5, 7, 9}));
+  EXPECT_EQ(kernels::ClothMesh::row_order(50, 60),
+            (std::vector<int>{56, 52, 50, 54, 58, 51, 53, 55, 57, 59}));
+  EXPECT_EQ(kernels::ClothMesh::row_order(3, 4), (std::vector<int>{3}));
+  // The paper's 1001^2 in 50 x 50 blocks: the rows of an AMRC level-3 region (every 8th) are
+  // the first 6 or 7 tiles of every block, so they share the first pages of its arrays.
+  kernels::ClothConfig cloth;
+  cloth.particles_i = cloth.particles_j = 1001;
+  cloth.block_size = 50;
+  const kernels::ClothMesh mesh(cloth, 0.1);
+  for (int i0 = 0; i0 < 1001; i0 += 50) {
+    const int coarse = (std::min(1001, i0 + 50) + 7) / 8 - (i0 + 7) / 8;
+    for (int i = i0; i < std::min(1001, i0 + 50); ++i) {
+      const std::int64_t place = (mesh.slot(i, 0) - std::int64_t{i0} * 1001) / 50;
+      EXPECT_EQ(place < coarse, i % 8 == 0) << "row " << i << " at place " << place;
     }
   }
 }
