@@ -57,8 +57,7 @@ class PotentialObjective final : public StepObjective {
   [[nodiscard]] std::size_t memory_bytes() const override {
     return (lines_ == nullptr ? 0 : lines_->memory_bytes() + line_z_.capacity() * sizeof(double)) +
            (newton_ == nullptr ? 0 : newton_->memory_bytes()) +
-           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes()) +
-           (vcycle_ == nullptr ? 0 : vcycle_->memory_bytes());
+           (multigrid_ == nullptr ? 0 : multigrid_->memory_bytes());
   }
   std::size_t release_unused(const SlotRuns& runs) override {
     return newton_ == nullptr ? 0 : newton_->release_unused(runs);

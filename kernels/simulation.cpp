@@ -450,7 +450,7 @@ Simulation::MemoryParts Simulation::memory_parts() const {
   const VcyclePreconditioner* v =
       newton_objective_ == nullptr ? nullptr : newton_objective_->vcycle();
   parts.vcycle = v == nullptr ? 0 : v->memory_bytes();
-  parts.solver = objective_->memory_bytes() - parts.vcycle;  // the objective counts its V-cycle
+  parts.solver = objective_->memory_bytes();
   return parts;
 }
 

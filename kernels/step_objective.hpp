@@ -100,7 +100,8 @@ class StepObjective {
   /// The references and the step length the objective works with.
   [[nodiscard]] virtual StepContext& context() = 0;
 
-  /// Bytes the objective holds beyond ClothState (the line-solve preconditioner's arrays).
+  /// Bytes the objective holds beyond ClothState (the model, the preconditioners' arrays),
+  /// except a V-cycle's, which Simulation::memory_parts counts as a part of its own.
   [[nodiscard]] virtual std::size_t memory_bytes() const { return 0; }
   /// Hands back the pages of unused slots of the objective's own arrays (slot_pages.hpp)
   /// after an AMRC event; returns the bytes.

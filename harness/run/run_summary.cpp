@@ -80,22 +80,13 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
         simulation.step(driver, kernels::Instrumentation::off, nullptr, trace);
     const kernels::MinimiserReport& m = report.minimiser;
     const ResidentMemory resident = read_resident_memory().value_or(ResidentMemory{});
-    const kernels::Simulation::MemoryParts parts = simulation.memory_parts();
-    StepRecord record{report.step,
-                      m.iterations,
-                      m.linear_iterations,
-                      m.evaluations,
-                      m.final.cost,
-                      kernels::MinimiserReport::rms(m.final),
-                      m.final.residual_max,
-                      kernels::to_string(m.reason),
-                      report.seconds,
-                      report.active_elements,
-                      report.sub_steps,
-                      resident.current_bytes,
-                      resident.peak_bytes,
-                      parts.total(),
-                      parts};
+    StepRecord record{report.step,          m.iterations,
+                      m.linear_iterations,  m.evaluations,
+                      m.final.cost,         kernels::MinimiserReport::rms(m.final),
+                      m.final.residual_max, kernels::to_string(m.reason),
+                      report.seconds,       report.active_elements,
+                      report.sub_steps,     resident.current_bytes,
+                      resident.peak_bytes,  simulation.memory_parts()};
     summary.steps.push_back(record);
     summary.wall_seconds += report.seconds;
     summary.total_iterations += m.iterations;
@@ -160,7 +151,6 @@ RunSummary simulate(kernels::Simulation& simulation, schedulers::LoopDriver& dri
       summary.steps.empty() ? 0.0 : cost_sum / static_cast<double>(summary.steps.size());
   summary.final_state = simulation.diagnostics();
   summary.simulation_parts = simulation.memory_parts();
-  summary.simulation_bytes = summary.simulation_parts.total();
   summary.contact_work = simulation.contact_work();
   summary.vcycle = simulation.vcycle_work();
   // The one verifier (verify.hpp) judges the final state; a non-finite value that stopped
@@ -237,7 +227,7 @@ void print_summary(const RunSummary& s) {
         s.wall_seconds > 0 ? 100.0 * s.vcycle.sequential_seconds / s.wall_seconds : 0.0);
   }
   fmt::print("  memory                   {:.1f} MiB simulation, {:.1f} MiB peak resident\n",
-             static_cast<double>(s.simulation_bytes) / (1 << 20),
+             static_cast<double>(s.simulation_parts.total()) / (1 << 20),
              static_cast<double>(s.peak_resident_bytes) / (1 << 20));
   fmt::print("  wall time                {:.3f} s ({} threads{})\n", s.wall_seconds, s.threads,
              s.oversubscribed ? ", oversubscribed" : "");
@@ -271,7 +261,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
                      {"sub_steps", r.sub_steps},
                      {"resident_bytes", known(r.resident_bytes)},
                      {"peak_resident_bytes", known(r.peak_resident_bytes)},
-                     {"simulation_bytes", r.simulation_bytes},
+                     {"simulation_bytes", r.simulation_parts.total()},
                      {"simulation_bytes_by_part", parts_json(r.simulation_parts)}});
   }
   const kernels::StateDiagnostics& d = s.final_state;
@@ -314,7 +304,7 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
         {"edges", d.active_edges},
         {"triples", d.active_triples}}},
       {"memory",
-       {{"simulation_bytes", s.simulation_bytes},
+       {{"simulation_bytes", s.simulation_parts.total()},
         {"simulation_bytes_by_part", parts_json(s.simulation_parts)},
         {"peak_resident_bytes", s.peak_resident_bytes}}},
       {"verification", {{"passed", s.verification.passed}, {"failures", s.verification.failures}}},

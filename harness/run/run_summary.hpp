@@ -32,12 +32,10 @@ struct StepRecord {
   int sub_steps = 1;  ///< accepted sub-steps (rejected steps are redone with half the length)
   /// The process's resident set when the step ended and its high-water mark then (VmRSS and
   /// VmHWM; 0 where /proc cannot be read, null in the JSON), and the simulation's own allocated
-  /// bytes (kernels::Simulation::memory_bytes): the step whose high-water mark rises set it.
-  /// `simulation_parts` splits the allocated bytes by part (mesh, state, lists, AMRC, solver,
-  /// V-cycle), so a rise can be traced to the part that grew.
+  /// bytes by part (mesh, state, lists, AMRC, solver, V-cycle; their total is the JSON's
+  /// `simulation_bytes`): the step whose high-water mark rises set it, the part that grew how.
   std::uint64_t resident_bytes = 0;
   std::uint64_t peak_resident_bytes = 0;
-  std::uint64_t simulation_bytes = 0;
   kernels::Simulation::MemoryParts simulation_parts;
 };
 
@@ -71,7 +69,6 @@ struct RunSummary {
   int threads = 1;
   bool oversubscribed = false;
   std::uint64_t peak_resident_bytes = 0;
-  std::uint64_t simulation_bytes = 0;
   kernels::Simulation::MemoryParts simulation_parts;  ///< after the last step
   std::vector<kernels::AmrcEvent> amrc_events;  ///< every AMRC check, in order
   std::vector<AppliedEvent> events;             ///< every scripted event that began, in order
