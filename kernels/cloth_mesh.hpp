@@ -100,6 +100,25 @@ class ClothMesh {
     return {row_at_[static_cast<std::size_t>(i0 + in_block / width)],
             static_cast<int>(j0 + in_block % width)};
   }
+  /// Calls f(s) for every slot block by block as slot() orders the blocks, but inside each
+  /// block row by row in grid order (the layout's order before rows were stored coarsest
+  /// first): a sequence in which a slot's grid neighbours along both directions stay close,
+  /// which numberings of the particles (the V-cycle's level 0) want for their line sweeps.
+  template <class F>
+  void for_each_slot_in_grid_rows(F&& f) const {
+    const std::int64_t b = block_size_;
+    for (std::int64_t i0 = 0; i0 < size_i_; i0 += b) {
+      const std::int64_t rows = std::min<std::int64_t>(size_i_ - i0, b);
+      for (std::int64_t j0 = 0; j0 < size_j_; j0 += b) {
+        const std::int64_t width = std::min<std::int64_t>(size_j_ - j0, b);
+        const std::int64_t base = i0 * size_j_ + j0 * rows;
+        for (std::int64_t i = i0; i < i0 + rows; ++i) {
+          const std::int64_t row = base + row_place_[static_cast<std::size_t>(i)] * width;
+          for (std::int64_t j = 0; j < width; ++j) f(row + j);
+        }
+      }
+    }
+  }
   [[nodiscard]] int grid_i(std::int64_t s) const { return grid_of(s).first; }
   [[nodiscard]] int grid_j(std::int64_t s) const { return grid_of(s).second; }
 

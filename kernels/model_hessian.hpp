@@ -56,7 +56,8 @@
 
 namespace clothbench::kernels {
 
-/// Unknown index of every slot: 0, 1, ... for the free particles in slot order, -1 for every
+/// Unknown index of every slot: 0, 1, ... for the free particles in the order of
+/// ClothMesh::for_each_slot_in_grid_rows (block by block, rows in grid order), -1 for every
 /// other slot (pinned, inactive, ghost). `count` receives the number of unknowns.
 std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* count);
 

@@ -106,9 +106,9 @@ void for_each_row_element(const ClothMesh& mesh, std::int64_t r, double w, const
 std::vector<std::int64_t> free_unknowns(const StepContext& ctx, std::int64_t* count) {
   std::vector<std::int64_t> index(static_cast<std::size_t>(ctx.mesh.slot_count()), -1);
   std::int64_t n = 0;
-  for (std::int64_t s = 0; s < ctx.mesh.slot_count(); ++s) {
+  ctx.mesh.for_each_slot_in_grid_rows([&](std::int64_t s) {
     if (ctx.is_free(s)) index[s] = n++;
-  }
+  });
   if (count != nullptr) *count = n;
   return index;
 }

@@ -36,9 +36,13 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <memory>
+#include <new>
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "kernels/band_lines.hpp"
@@ -141,10 +145,35 @@ class VcyclePreconditioner {
   /// cycle computes in double from them, so it is the symmetric V-cycle of the rounded
   /// operators, and a level's values take half the bytes (kernels/MODEL-NOTES.md, V-cycle,
   /// "Operators stored in single precision").
+  /// std::allocator whose resize leaves new entries unset (default-initialised, not zeroed):
+  /// for the arrays that a parallel pass fills entirely after they are sized (a level's
+  /// columns and values), where a zeroing pass on one thread was the larger part of a new
+  /// structure's sequential time.
+  template <class T>
+  struct UnsetAllocator : std::allocator<T> {
+    using value_type = T;
+    template <class U>
+    struct rebind {
+      using other = UnsetAllocator<U>;
+    };
+    UnsetAllocator() = default;
+    template <class U>
+    explicit UnsetAllocator(const UnsetAllocator<U>& /*other*/) noexcept {}
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+      ::new (static_cast<void*>(p)) U;
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+      ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+  };
+  template <class T>
+  using UnsetVector = std::vector<T, UnsetAllocator<T>>;
   struct BlockRows {
     std::vector<std::int64_t> start;  ///< per row: first block (+ end)
-    std::vector<std::int64_t> col;    ///< per block: its column node
-    std::vector<float> value;         ///< per block: 9 entries, row-major
+    UnsetVector<std::int64_t> col;    ///< per block: its column node (placed by a parallel pass)
+    UnsetVector<float> value;         ///< per block: 9 entries, row-major (summed in parallel)
   };
   /// Interpolation weights by node: per row the (node, weight) pairs it follows.
   struct Weights {

@@ -221,19 +221,21 @@ void VcyclePreconditioner::begin_structure(const StepContext& ctx) {
     spare_levels_.push_back(std::move(*level));
   }
   levels_.clear();
-  // The free particles in slot order (free_unknowns' numbering), in the kept buffers: a
-  // buffer of the whole mesh made anew for every structure cost its page faults each time.
+  // The free particles block by block, each block's rows in grid order (free_unknowns'
+  // numbering; not slot order, whose rows are stored coarsest first: a line across the rows
+  // would visit nodes far apart), in the kept buffers: a buffer of the whole mesh made anew
+  // for every structure cost its page faults each time.
   unknown_.assign(static_cast<std::size_t>(mesh.slot_count()), -1);
   slot_of_node_.clear();
   Level fine = take_level();
-  for (std::int64_t s = 0; s < mesh.slot_count(); ++s) {
-    if (!ctx.is_free(s)) continue;
+  mesh.for_each_slot_in_grid_rows([&](std::int64_t s) {
+    if (!ctx.is_free(s)) return;
     unknown_[s] = static_cast<std::int64_t>(slot_of_node_.size());
     slot_of_node_.push_back(s);
     const auto [i, j] = mesh.grid_of(s);
     fine.i.push_back(i);
     fine.j.push_back(j);
-  }
+  });
   fine.a.start.assign(slot_of_node_.size() + 1, 0);
   levels_.push_back(std::move(fine));
   row_source_.resize(slot_of_node_.size());
@@ -282,7 +284,8 @@ void VcyclePreconditioner::size_accumulators() {
 
 void VcyclePreconditioner::finish_structure(const StepContext& ctx) {
   const ClothMesh& mesh = ctx.mesh;
-  levels_.front().a.value.assign(9 * levels_.front().a.col.size(), 0.0f);
+  // Sized, not zeroed: the level's values are all written by factor()'s row pass.
+  levels_.front().a.value.resize(9 * levels_.front().a.col.size());
   // Lattice spacings 2, 4, 8, ...: a spacing that would remove less than a fifth of a
   // level's nodes (a coarse region's leaves are coarser) makes no level; the next one is
   // tried from the same level.

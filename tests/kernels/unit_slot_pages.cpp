@@ -114,6 +114,31 @@ TEST(SlotLayout, RowOrderPutsEachCoarseLatticeFirst) {
   }
 }
 
+TEST(SlotLayout, GridRowOrderVisitsEverySlotOnceBlockByBlockWithRowsInGridOrder) {
+  // The V-cycle numbers its level 0 in this order: every slot once, the blocks in slot()'s
+  // order, and inside a block (i, j) row-major in grid order, not in the rows' storage order.
+  const int cases[][3] = {{7, 11, 3}, {12, 8, 4}, {5, 5, 10}, {4, 6, 1}, {13, 2, 5}, {101, 67, 50}};
+  for (const auto& [ni, nj, block] : cases) {
+    SCOPED_TRACE(testing::Message() << ni << " x " << nj << ", block " << block);
+    kernels::ClothConfig cloth;
+    cloth.particles_i = ni;
+    cloth.particles_j = nj;
+    cloth.block_size = block;
+    const kernels::ClothMesh mesh(cloth, 0.1);
+    std::vector<std::pair<int, int>> expected;
+    for (int i0 = 0; i0 < ni; i0 += block) {
+      for (int j0 = 0; j0 < nj; j0 += block) {
+        for (int i = i0; i < std::min(ni, i0 + block); ++i) {
+          for (int j = j0; j < std::min(nj, j0 + block); ++j) expected.emplace_back(i, j);
+        }
+      }
+    }
+    std::vector<std::pair<int, int>> visited;
+    mesh.for_each_slot_in_grid_rows([&](std::int64_t s) { visited.push_back(mesh.grid_of(s)); });
+    EXPECT_EQ(visited, expected);
+  }
+}
+
 TEST(TopologyKey, AChangedFlagOrActiveByteFailsItsChunkAndOnlyItsChunk) {
   kernels::ClothConfig cloth;
   cloth.particles_i = 67;
