@@ -3,6 +3,7 @@
 
 #include "harness/machine/allocator.hpp"
 #include "harness/machine/git_revision.hpp"
+#include "kernels/vector/element_lanes.hpp"
 
 #include <fmt/format.h>
 #include <hwloc.h>
@@ -81,6 +82,65 @@ std::string cpu_model(const Topology& topology) {
     }
   }
   return "unknown";
+}
+
+/// The processor's family, model number and stepping (x86: CPUID's; hwloc's package infos, else
+/// /proc/cpuinfo), -1 where neither says. Two processor generations can share a model name and
+/// cache sizes on a VM ("AMD EPYC", L3 32 MiB: Zen 3 without AVX-512 and Zen 4 with it); these
+/// numbers tell them apart.
+struct CpuIdentity {
+  std::string vendor = "unknown";
+  int family = -1, model_number = -1, stepping = -1;
+};
+
+int parse_int(std::string_view text) {
+  int value = 0;
+  bool any = false;
+  for (const char c : text) {
+    if (c == ' ' || c == '\t') {
+      if (any) break;
+      continue;
+    }
+    if (c < '0' || c > '9') return -1;
+    value = value * 10 + (c - '0');
+    any = true;
+    if (value > 1'000'000) return -1;
+  }
+  return any ? value : -1;
+}
+
+CpuIdentity cpu_identity(const Topology& topology) {
+  CpuIdentity identity;
+  if (hwloc_obj_t package = topology.object(HWLOC_OBJ_PACKAGE, 0)) {
+    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUVendor")) identity.vendor = v;
+    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUFamilyNumber"))
+      identity.family = parse_int(v);
+    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUModelNumber"))
+      identity.model_number = parse_int(v);
+    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUStepping"))
+      identity.stepping = parse_int(v);
+  }
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line) && !line.empty()) {  // the first processor's block
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const auto key_end = line.find_last_not_of(" \t", colon - 1);
+    const std::string key = key_end == std::string::npos ? "" : line.substr(0, key_end + 1);
+    const std::string_view value = std::string_view(line).substr(colon + 1);
+    const auto start = value.find_first_not_of(" \t");
+    const std::string_view trimmed = start == std::string_view::npos ? "" : value.substr(start);
+    if (key == "vendor_id" && identity.vendor == "unknown" && !trimmed.empty()) {
+      identity.vendor = std::string(trimmed);
+    } else if (key == "cpu family" && identity.family < 0) {
+      identity.family = parse_int(trimmed);
+    } else if (key == "model" && identity.model_number < 0) {
+      identity.model_number = parse_int(trimmed);
+    } else if (key == "stepping" && identity.stepping < 0) {
+      identity.stepping = parse_int(trimmed);
+    }
+  }
+  return identity;
 }
 
 nlohmann::json cache(const Topology& topology, hwloc_obj_type_t type) {
@@ -239,8 +299,14 @@ nlohmann::json machine_context() {
   const int pus = topology.loaded() ? topology.count(HWLOC_OBJ_PU) : hardware_threads();
   const int cores = topology.loaded() ? topology.count(HWLOC_OBJ_CORE) : pus;
   const unsigned api = hwloc_get_api_version();
+  const CpuIdentity identity = cpu_identity(topology);
   context["cpu"] = {
       {"model", cpu_model(topology)},
+      {"vendor", identity.vendor},
+      {"family", identity.family},
+      {"model_number", identity.model_number},
+      {"stepping", identity.stepping},
+      {"vector_isa", kernels::vector::element_lanes_kernels().isa},
       {"packages", std::max(1, topology.count(HWLOC_OBJ_PACKAGE))},
       {"cores", std::max(1, cores)},
       {"pus", std::max(1, pus)},
@@ -300,6 +366,14 @@ std::string machine_summary(const nlohmann::json& c) {
     return fmt::format("{} {} KiB x {}", level, entry.at("size_bytes").get<std::uint64_t>() / 1024,
                        count);
   };
+  // Stored contexts from before the processor's identity was recorded have none.
+  const std::string identity =
+      cpu.contains("family")
+          ? fmt::format(" ({}, family {} model {} stepping {}; vector lanes {})",
+                        cpu.at("vendor").get<std::string>(), cpu.at("family").get<int>(),
+                        cpu.at("model_number").get<int>(), cpu.at("stepping").get<int>(),
+                        cpu.at("vector_isa").get<std::string>())
+          : std::string();
   const auto& omp = c.at("openmp");
   const auto& schedule = omp.at("schedule");
   // Stored contexts from before the allocator was recorded have no "allocator".
@@ -320,7 +394,7 @@ std::string machine_summary(const nlohmann::json& c) {
   }
   return fmt::format(
       "host      {} ({} {} {})\n"
-      "cpu       {}\n"
+      "cpu       {}{}\n"
       "topology  {} package(s), {} core(s), {} PU(s), {} NUMA node(s)\n"
       "caches    {}, {}, {}\n"
       "memory    {:.1f} GiB{}\n"
@@ -330,9 +404,9 @@ std::string machine_summary(const nlohmann::json& c) {
       "date      {}\n",
       c.at("hostname").get<std::string>(), c.at("os").at("sysname").get<std::string>(),
       c.at("os").at("release").get<std::string>(), c.at("os").at("machine").get<std::string>(),
-      cpu.at("model").get<std::string>(), cpu.at("packages").get<int>(), cpu.at("cores").get<int>(),
-      cpu.at("pus").get<int>(), cpu.at("numa_nodes").get<int>(), cache_text("L1d"),
-      cache_text("L2"), cache_text("L3"),
+      cpu.at("model").get<std::string>(), identity, cpu.at("packages").get<int>(),
+      cpu.at("cores").get<int>(), cpu.at("pus").get<int>(), cpu.at("numa_nodes").get<int>(),
+      cache_text("L1d"), cache_text("L2"), cache_text("L3"),
       static_cast<double>(c.at("memory").at("total_bytes").get<std::uint64_t>()) /
           (1024.0 * 1024.0 * 1024.0),
       allocator, c.at("compiler").at("id").get<std::string>(),

@@ -15,7 +15,9 @@ inline constexpr int kMachineContextSchemaVersion = 1;
 /// The machine context as JSON. Keys (all always present):
 /// schema_version (int), date_utc (ISO-8601 "YYYY-MM-DDTHH:MM:SSZ"), hostname,
 /// os {sysname, release, version, machine},
-/// cpu {model, packages, cores, pus, numa_nodes,
+/// cpu {model, vendor, family, model_number, stepping (CPUID's numbers; -1 where the system
+///      does not say), vector_isa (the instruction set of the vector kernel's lanes on this CPU:
+///      "avx512f" | "avx2+fma" | "sse2"), packages, cores, pus, numa_nodes,
 ///      caches {L1d, L2, L3: {size_bytes (of one cache, 0 if none), count}},
 ///      hwloc_api_version},
 /// memory {total_bytes, hwloc_numa_bytes, allocator (allocator.hpp: {library,

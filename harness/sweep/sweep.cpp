@@ -133,15 +133,28 @@ void write_outputs(json& document, const std::filesystem::path& dir) {
 }
 
 /// Machine context fields (JSON pointers) that a resumed sweep must share with the rows it
-/// continues: the build, the compiler, the processor (its caches too: a VM's model name can be
-/// the same on two processor generations, "Intel(R) Xeon(R) Processor"), the host, the OpenMP
-/// runtime and the allocator policy. Load, date and kernel release may differ (each session's
-/// are recorded).
-constexpr const char* kResumeMachineFields[] = {
-    "/build/git_revision", "/build/type",   "/build/flags",   "/compiler",
-    "/cpu/model",          "/cpu/packages", "/cpu/cores",     "/cpu/pus",
-    "/cpu/caches",         "/hostname",     "/openmp/runtime/name",
-    "/memory/allocator"};
+/// continues: the build, the compiler, the processor (its caches, family, model number,
+/// stepping and vector instruction set too: a VM's model name can be the same on two processor
+/// generations, "Intel(R) Xeon(R) Processor", and so can its caches, "AMD EPYC" with 32 MiB of
+/// L3 with and without AVX-512), the host, the OpenMP runtime and the allocator policy. Load,
+/// date and kernel release may differ (each session's are recorded).
+constexpr const char* kResumeMachineFields[] = {"/build/git_revision",
+                                                "/build/type",
+                                                "/build/flags",
+                                                "/compiler",
+                                                "/cpu/model",
+                                                "/cpu/vendor",
+                                                "/cpu/family",
+                                                "/cpu/model_number",
+                                                "/cpu/stepping",
+                                                "/cpu/vector_isa",
+                                                "/cpu/packages",
+                                                "/cpu/cores",
+                                                "/cpu/pus",
+                                                "/cpu/caches",
+                                                "/hostname",
+                                                "/openmp/runtime/name",
+                                                "/memory/allocator"};
 
 /// The existing document of a resumed sweep, after checking it matches this sweep.
 json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,

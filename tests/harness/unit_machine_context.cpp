@@ -8,9 +8,11 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <ctime>
+#include <fstream>
 #include <iomanip>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -40,6 +42,11 @@ TEST(MachineContext, TopologyIsSane) {
   }
   EXPECT_TRUE(cpu.at("hwloc_api_version").is_string());
   EXPECT_EQ(cpu.at("pus").get<int>(), clothbench::harness::hardware_threads());
+  EXPECT_TRUE(cpu.at("vendor").is_string());
+  for (const char* number : {"family", "model_number", "stepping"})
+    EXPECT_GE(cpu.at(number).get<int>(), -1) << number;
+  const std::string isa = cpu.at("vector_isa").get<std::string>();
+  EXPECT_TRUE(isa == "avx512f" || isa == "avx2+fma" || isa == "sse2") << isa;
   EXPECT_GT(c.at("memory").at("total_bytes").get<std::uint64_t>(), 0u);
   EXPECT_EQ(c.at("memory").at("total_bytes").get<std::uint64_t>(),
             clothbench::harness::total_memory_bytes());
@@ -73,6 +80,45 @@ TEST(MachineContext, ProcessorsAndMemoryAgreeWithTheSystem) {
   ASSERT_GT(kib, 0u) << "no MemTotal in /proc/meminfo";
   const double total = static_cast<double>(c.at("memory").at("total_bytes").get<std::uint64_t>());
   EXPECT_NEAR(total, 1024.0 * static_cast<double>(kib), 1e-3 * 1024.0 * static_cast<double>(kib));
+}
+
+// The processor's identity against /proc/cpuinfo's first block, parsed here on its own: two
+// processors with one model name and one set of cache sizes (a VM's "AMD EPYC") must differ in
+// the context, or a resumed sweep could mix their runs.
+TEST(MachineContext, ProcessorIdentityAgreesWithProcCpuinfo) {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  if (!cpuinfo) GTEST_SKIP() << "no /proc/cpuinfo";
+  std::map<std::string, std::string> fields;
+  std::string line;
+  while (std::getline(cpuinfo, line) && !line.empty()) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string key = line.substr(0, colon);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    std::string value = colon + 1 < line.size() ? line.substr(colon + 1) : "";
+    value.erase(0, value.find_first_not_of(" \t") == std::string::npos
+                       ? value.size()
+                       : value.find_first_not_of(" \t"));
+    fields.emplace(key, value);
+  }
+  if (!fields.count("cpu family")) GTEST_SKIP() << "/proc/cpuinfo has no x86 identity";
+  const json cpu = machine_context().at("cpu");
+  EXPECT_EQ(cpu.at("vendor").get<std::string>(), fields["vendor_id"]);
+  EXPECT_EQ(cpu.at("family").get<int>(), std::stoi(fields["cpu family"]));
+  EXPECT_EQ(cpu.at("model_number").get<int>(), std::stoi(fields["model"]));
+  EXPECT_EQ(cpu.at("stepping").get<int>(), std::stoi(fields["stepping"]));
+  // The vector kernel's lanes follow the instruction sets the kernel enabled.
+  std::istringstream flags(fields["flags"]);
+  std::set<std::string> has;
+  for (std::string flag; flags >> flag;) has.insert(flag);
+  const std::string expected = has.count("avx512f")                    ? "avx512f"
+                               : has.count("avx2") && has.count("fma") ? "avx2+fma"
+                                                                       : "sse2";
+  EXPECT_EQ(cpu.at("vector_isa").get<std::string>(), expected);
+  EXPECT_THAT(clothbench::harness::machine_summary(machine_context()),
+              ::testing::HasSubstr("family " + std::to_string(cpu.at("family").get<int>()) +
+                                   " model " + std::to_string(cpu.at("model_number").get<int>()) +
+                                   " stepping " + std::to_string(cpu.at("stepping").get<int>())));
 }
 
 TEST(MachineContext, SystemBuildAndDate) {
