@@ -13,9 +13,12 @@
 #include <unistd.h>
 
 #include <array>
+#include <charconv>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string_view>
 #include <thread>
@@ -67,21 +70,28 @@ std::uint64_t sysconf_memory() {
              : 0;
 }
 
-std::string cpu_model(const Topology& topology) {
+/// The "key : value" lines of /proc/cpuinfo's first processor block (empty where there is none).
+std::map<std::string, std::string> cpuinfo_fields() {
+  std::map<std::string, std::string> fields;
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line) && !line.empty()) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const auto key_end = line.find_last_not_of(" \t", colon == 0 ? 0 : colon - 1);
+    const auto start = line.find_first_not_of(" \t", colon + 1);
+    fields.emplace(key_end == std::string::npos ? "" : line.substr(0, key_end + 1),
+                   start == std::string::npos ? "" : line.substr(start));
+  }
+  return fields;
+}
+
+std::string cpu_model(const Topology& topology, const std::map<std::string, std::string>& cpuinfo) {
   if (hwloc_obj_t package = topology.object(HWLOC_OBJ_PACKAGE, 0)) {
     if (const char* model = hwloc_obj_get_info_by_name(package, "CPUModel")) return model;
   }
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpuinfo, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      if (const auto colon = line.find(':'); colon != std::string::npos) {
-        const auto start = line.find_first_not_of(" \t", colon + 1);
-        return start == std::string::npos ? std::string() : line.substr(start);
-      }
-    }
-  }
-  return "unknown";
+  const auto model = cpuinfo.find("model name");
+  return model != cpuinfo.end() ? model->second : "unknown";
 }
 
 /// The processor's family, model number and stepping (x86: CPUID's; hwloc's package infos, else
@@ -93,53 +103,30 @@ struct CpuIdentity {
   int family = -1, model_number = -1, stepping = -1;
 };
 
-int parse_int(std::string_view text) {
-  int value = 0;
-  bool any = false;
-  for (const char c : text) {
-    if (c == ' ' || c == '\t') {
-      if (any) break;
-      continue;
+CpuIdentity cpu_identity(const Topology& topology,
+                         const std::map<std::string, std::string>& cpuinfo) {
+  hwloc_obj_t package = topology.object(HWLOC_OBJ_PACKAGE, 0);
+  // hwloc's info by name, else /proc/cpuinfo's key; nullptr when neither has it.
+  auto text = [&](const char* hwloc_name, const char* cpuinfo_key) -> const char* {
+    if (package != nullptr) {
+      if (const char* value = hwloc_obj_get_info_by_name(package, hwloc_name)) return value;
     }
-    if (c < '0' || c > '9') return -1;
-    value = value * 10 + (c - '0');
-    any = true;
-    if (value > 1'000'000) return -1;
-  }
-  return any ? value : -1;
-}
-
-CpuIdentity cpu_identity(const Topology& topology) {
+    const auto entry = cpuinfo.find(cpuinfo_key);
+    return entry != cpuinfo.end() && !entry->second.empty() ? entry->second.c_str() : nullptr;
+  };
+  auto number = [&](const char* hwloc_name, const char* cpuinfo_key) {
+    const char* value = text(hwloc_name, cpuinfo_key);
+    int parsed = -1;
+    if (value == nullptr) return parsed;
+    const char* end = value + std::strlen(value);
+    const auto [rest, error] = std::from_chars(value, end, parsed);
+    return error == std::errc() && rest == end ? parsed : -1;
+  };
   CpuIdentity identity;
-  if (hwloc_obj_t package = topology.object(HWLOC_OBJ_PACKAGE, 0)) {
-    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUVendor")) identity.vendor = v;
-    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUFamilyNumber"))
-      identity.family = parse_int(v);
-    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUModelNumber"))
-      identity.model_number = parse_int(v);
-    if (const char* v = hwloc_obj_get_info_by_name(package, "CPUStepping"))
-      identity.stepping = parse_int(v);
-  }
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpuinfo, line) && !line.empty()) {  // the first processor's block
-    const auto colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    const auto key_end = line.find_last_not_of(" \t", colon - 1);
-    const std::string key = key_end == std::string::npos ? "" : line.substr(0, key_end + 1);
-    const std::string_view value = std::string_view(line).substr(colon + 1);
-    const auto start = value.find_first_not_of(" \t");
-    const std::string_view trimmed = start == std::string_view::npos ? "" : value.substr(start);
-    if (key == "vendor_id" && identity.vendor == "unknown" && !trimmed.empty()) {
-      identity.vendor = std::string(trimmed);
-    } else if (key == "cpu family" && identity.family < 0) {
-      identity.family = parse_int(trimmed);
-    } else if (key == "model" && identity.model_number < 0) {
-      identity.model_number = parse_int(trimmed);
-    } else if (key == "stepping" && identity.stepping < 0) {
-      identity.stepping = parse_int(trimmed);
-    }
-  }
+  if (const char* vendor = text("CPUVendor", "vendor_id")) identity.vendor = vendor;
+  identity.family = number("CPUFamilyNumber", "cpu family");
+  identity.model_number = number("CPUModelNumber", "model");
+  identity.stepping = number("CPUStepping", "stepping");
   return identity;
 }
 
@@ -299,9 +286,10 @@ nlohmann::json machine_context() {
   const int pus = topology.loaded() ? topology.count(HWLOC_OBJ_PU) : hardware_threads();
   const int cores = topology.loaded() ? topology.count(HWLOC_OBJ_CORE) : pus;
   const unsigned api = hwloc_get_api_version();
-  const CpuIdentity identity = cpu_identity(topology);
+  const std::map<std::string, std::string> cpuinfo = cpuinfo_fields();
+  const CpuIdentity identity = cpu_identity(topology, cpuinfo);
   context["cpu"] = {
-      {"model", cpu_model(topology)},
+      {"model", cpu_model(topology, cpuinfo)},
       {"vendor", identity.vendor},
       {"family", identity.family},
       {"model_number", identity.model_number},
