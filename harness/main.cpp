@@ -7,6 +7,7 @@
 //   clothbench table RESULTS.json    Table 2 from a stored sweep (harness/report)
 //   clothbench compare A.json B.json two sweeps row by row, with a U test (harness/compare)
 //   clothbench predict TRACE         Table 2 / Fig. 12 predicted from a trace (harness/predict)
+//   clothbench strip [options]       the step solver on a plane-strain strip (harness/strip)
 // Exit codes: 0 success, 1 a run that failed verification or an internal error,
 // 2 bad input (command line, scene file), 130 / 143 a sweep stopped by Ctrl-C / SIGTERM
 // (its finished rows are kept; it prints the command that resumes it). `compare` exits 1
@@ -36,6 +37,7 @@
 #include "harness/run/run_summary.hpp"
 #include "harness/scene/scene.hpp"
 #include "harness/stress/stress_command.hpp"
+#include "harness/strip/strip_command.hpp"
 #include "harness/sweep/size_class.hpp"
 #include "harness/sweep/sweep.hpp"
 
@@ -309,6 +311,7 @@ int main(int argc, char** argv) {
   clothbench::harness::StressCommand stress_command(app);
   clothbench::harness::CompareCommand compare_command(app);
   clothbench::harness::PredictCommand predict_command(app);
+  clothbench::harness::StripCommand strip_command(app);
 
   try {
     app.parse(argc, argv);
@@ -337,6 +340,7 @@ int main(int argc, char** argv) {
     if (stress_command.selected()) return stress_command.run(argc, argv);
     if (compare_command.selected()) return compare_command.run();
     if (predict_command.selected()) return predict_command.run();
+    if (strip_command.selected()) return strip_command.run();
     if (*sweep_command) {
       // The OpenMP runtime reads OMP_WAIT_POLICY when it starts (libgomp: when the program
       // is loaded), so a policy that differs from the environment's restarts the command with
