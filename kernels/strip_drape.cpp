@@ -118,6 +118,99 @@ StripLaw band_law(const Band& band, double previous, double strain, double mu, d
   return SmoothedLaw<Band>(band, fp, smoothed, width, barrier).at(strain);
 }
 
+/// The tilted plateau's law of one edge for one step: f(s) = clamp(fp + E (s - ep), tU(s),
+/// tL(s)) for s > 0 and 0 otherwise, as pieces (which of the three it is) with their
+/// potentials at the piece starts. Its pieces are found once a step by sign changes on a
+/// geometric grid of strains, refined by bisection.
+class TiltedLaw {
+ public:
+  TiltedLaw() = default;
+  TiltedLaw(const TensileBand& band, double fp, double ep, double stiffness)
+      : band_(&band), fp_(fp), ep_(ep), e_(stiffness) {
+    std::vector<double> roots;
+    const double top = 8.0 * std::max(band.emt, ep);
+    double previous_s = 0.0;
+    double previous_l = line(0.0) - band.loading(0.0);
+    double previous_u = line(0.0) - band.unloading(0.0);
+    constexpr int kGrid = 240;
+    for (int k = 0; k <= kGrid; ++k) {
+      const double s = top * std::pow(10.0, -9.0 * (1.0 - static_cast<double>(k) / kGrid));
+      const double gl = line(s) - band.loading(s);
+      const double gu = line(s) - band.unloading(s);
+      if ((gl > 0.0) != (previous_l > 0.0)) roots.push_back(bisect(previous_s, s, true));
+      if ((gu > 0.0) != (previous_u > 0.0)) roots.push_back(bisect(previous_s, s, false));
+      previous_s = s;
+      previous_l = gl;
+      previous_u = gu;
+    }
+    std::sort(roots.begin(), roots.end());
+    starts_.push_back(0.0);
+    for (double r : roots) {
+      if (r > starts_.back()) starts_.push_back(r);
+    }
+    for (std::size_t i = 0; i < starts_.size(); ++i) {
+      const double mid = i + 1 < starts_.size() ? 0.5 * (starts_[i] + starts_[i + 1])
+                                                : 2.0 * starts_[i] + band.emt;
+      kinds_.push_back(kind(mid));
+    }
+    potentials_.push_back(0.0);
+    for (std::size_t i = 0; i + 1 < starts_.size(); ++i) {
+      potentials_.push_back(potentials_.back() + integral(kinds_[i], starts_[i], starts_[i + 1]));
+    }
+  }
+
+  StripLaw at(double s) const {
+    StripLaw law;
+    if (!(s > 0.0)) return law;
+    const std::size_t i = static_cast<std::size_t>(
+        std::upper_bound(starts_.begin(), starts_.end(), s) - starts_.begin() - 1);
+    switch (kinds_[i]) {
+      case 0:
+        law.force = band_->unloading(s);
+        law.slope = band_->unloading_slope(s);
+        break;
+      case 1:
+        law.force = line(s);
+        law.slope = e_;
+        break;
+      default:
+        law.force = band_->loading(s);
+        law.slope = band_->loading_slope(s);
+        break;
+    }
+    law.potential = potentials_[i] + integral(kinds_[i], starts_[i], s);
+    return law;
+  }
+
+ private:
+  double line(double s) const { return fp_ + e_ * (s - ep_); }
+  int kind(double s) const {
+    const double l = line(s);
+    if (l <= band_->unloading(s)) return 0;
+    return l >= band_->loading(s) ? 2 : 1;
+  }
+  double integral(int k, double a, double b) const {
+    if (k == 0) return band_->unloading_integral(b) - band_->unloading_integral(a);
+    if (k == 2) return band_->loading_integral(b) - band_->loading_integral(a);
+    return fp_ * (b - a) + 0.5 * e_ * ((b - ep_) * (b - ep_) - (a - ep_) * (a - ep_));
+  }
+  double bisect(double a, double b, bool loading) const {
+    auto g = [&](double s) { return line(s) - (loading ? band_->loading(s) : band_->unloading(s)); };
+    const bool ga = g(a) > 0.0;
+    for (int i = 0; i < 200 && b - a > 1e-15 * b; ++i) {
+      const double m = 0.5 * (a + b);
+      if ((g(m) > 0.0) == ga) a = m; else b = m;
+    }
+    return 0.5 * (a + b);
+  }
+
+  const TensileBand* band_ = nullptr;
+  double fp_ = 0.0, ep_ = 0.0, e_ = 0.0;
+  std::vector<double> starts_;
+  std::vector<int> kinds_;
+  std::vector<double> potentials_;
+};
+
 /// Which piece of the return mapping a strain is on (for the trace's branch changes).
 int branch(const TensileBand& band, double previous, double eps) {
   const BandBreakpoints bp = band_breakpoints(band, previous);
@@ -135,6 +228,7 @@ class Strip {
         bending_(BendingBand::from_kes(s.fabric.warp, s.fabric.kappa0_per_cm)),
         mass_(static_cast<std::size_t>(n_)), x_(2 * n_), previous_x_(2 * n_), target_(2 * n_),
         tension_prev_(static_cast<std::size_t>(n_ - 1), 0.0),
+        strain_prev_(static_cast<std::size_t>(n_ - 1), 0.0),
         moment_prev_(static_cast<std::size_t>(n_ - 2), 0.0),
         edge_memory_(static_cast<std::size_t>(n_ - 1), 0.0),
         triple_memory_(static_cast<std::size_t>(n_ - 2), 0.0) {
@@ -144,6 +238,7 @@ class Strip {
       x_.segment<2>(2 * i) = Vec2(-0.5 + i * h_, kStartHeight);
     }
     previous_x_ = x_;
+    build_tilted();
   }
 
   int particles() const { return n_; }
@@ -152,7 +247,10 @@ class Strip {
   /// Starts a step: the inertial target, and the initial guess (the target with particles
   /// inside the contact layer put back on it).
   Eigen::VectorXd begin_step() {
-    target_ = x_ + (1.0 - s_.damping) * (x_ - previous_x_);
+    // Damping is a rate (MODEL.md 5): the velocity kept over a step of dt is (1 - damping)^(dt /
+    // 4 ms), exactly 1 - damping at 4 ms.
+    const double keep = std::pow(1.0 - s_.damping, s_.step_s / 0.004);
+    target_ = x_ + keep * (x_ - previous_x_);
     Eigen::VectorXd guess = target_;
     for (int i = 0; i < n_; ++i) {
       Vec2 normal;
@@ -165,7 +263,9 @@ class Strip {
   void end_step(const Eigen::VectorXd& x) {
     for (int e = 0; e < n_ - 1; ++e) {
       tension_prev_[idx(e)] = edge_law(x, e, 0.0).force;
+      strain_prev_[idx(e)] = (x.segment<2>(2 * e + 2) - x.segment<2>(2 * e)).norm() / h_ - 1.0;
     }
+    build_tilted();
     for (int t = 0; t < n_ - 2; ++t) {
       moment_prev_[idx(t)] = triple_law(x, t, 0.0).force;
     }
@@ -275,7 +375,17 @@ class Strip {
   /// The kernel's smoothing rule: colour by colour (3 colours on a line), a local Newton
   /// step with halving on the exact local energy of each particle whose residual is at
   /// least the tolerance.
-  void smooth(Eigen::VectorXd& x, double mu) const {
+  /// Returns the hat moves that lowered the energy.
+  int smooth(Eigen::VectorXd& x, double mu) const {
+    int moved_hats = 0;
+    for (int pass = 0; pass < s_.hat_sweeps && s_.hat_levels > 0; ++pass) {
+      int top = 1;
+      while (top < s_.hat_levels && (2 << top) < n_) ++top;
+      for (int level = top; level >= 1; --level) {
+        const int width = 1 << level;
+        for (int j = 0; j < n_; j += width) moved_hats += hat_move(x, j, width, mu) ? 1 : 0;
+      }
+    }
     for (int sweep = 0; sweep < s_.smoothing_sweeps; ++sweep) {
       for (int colour = 0; colour < 3; ++colour) {
         for (int i = colour; i < n_; i += 3) {
@@ -295,6 +405,84 @@ class Strip {
         }
       }
     }
+    return moved_hats;
+  }
+
+  /// Moves the hat function of half-width `width` centred on particle j (weights
+  /// 1 - |i - j| / width) by one Newton step with halving on the exact energy of the terms it
+  /// touches, when its residual is at least the tolerance.
+  bool hat_move(Eigen::VectorXd& x, int j, int width, double mu) const {
+    const int lo = std::max(0, j - width + 1);
+    const int hi = std::min(n_ - 1, j + width - 1);
+    Vec2 g;
+    Mat2 k;
+    double weight = 0.0;
+    for (int i = lo; i <= hi; ++i) weight += hat(i, j, width) * mass_[idx(i)] * kGravity;
+    const double before = hat_energy(x, lo, hi, j, width, mu, &g, &k);
+    if (g.norm() / weight < s_.tolerance) return false;
+    const Vec2 step = -k.ldlt().solve(g);
+    if (!step.allFinite()) return false;
+    Eigen::VectorXd start = x.segment(2 * lo, 2 * (hi - lo + 1));
+    double alpha = 1.0;
+    for (int halving = 0; halving < 30; ++halving, alpha *= 0.5) {
+      for (int i = lo; i <= hi; ++i) {
+        x.segment<2>(2 * i) = start.segment<2>(2 * (i - lo)) + alpha * hat(i, j, width) * step;
+      }
+      if (hat_energy(x, lo, hi, j, width, mu, nullptr, nullptr) < before) return true;
+    }
+    x.segment(2 * lo, 2 * (hi - lo + 1)) = start;
+    return false;
+  }
+
+  static double hat(int i, int j, int width) {
+    return std::max(0.0, 1.0 - std::abs(i - j) / static_cast<double>(width));
+  }
+
+  /// The terms of Phi that involve particles lo..hi, with the gradient and model block with
+  /// respect to the displacement of the hat (j, width).
+  double hat_energy(const Eigen::VectorXd& x, int lo, int hi, int j, int width, double mu,
+                    Vec2* g, Mat2* k) const {
+    Vec2 grad = Vec2::Zero();
+    Mat2 block = Mat2::Zero();
+    double energy = 0.0;
+    auto w = [&](int i) { return (i < lo || i > hi) ? 0.0 : hat(i, j, width); };
+    for (int i = lo; i <= hi; ++i) {
+      Vec2 gi;
+      Mat2 ki;
+      energy += particle_terms(x, i, &gi, &ki);
+      grad += w(i) * gi;
+      block += w(i) * w(i) * ki;
+    }
+    for (int e = std::max(0, lo - 1); e <= std::min(n_ - 2, hi); ++e) {
+      const Vec2 d = x.segment<2>(2 * e + 2) - x.segment<2>(2 * e);
+      const double l = d.norm();
+      const Vec2 u = d / l;
+      const StripLaw law = edge_law(x, e, mu);
+      energy += kWidth * h_ * law.potential;
+      const double dw = w(e + 1) - w(e);
+      grad += dw * kWidth * law.force * u;
+      const Mat2 uu = u * u.transpose();
+      block += dw * dw *
+               (kWidth * law.slope / h_ * uu +
+                kWidth * std::max(law.force, 0.0) / l * (Mat2::Identity() - uu));
+    }
+    for (int t = std::max(0, lo - 2); t <= std::min(n_ - 3, hi); ++t) {
+      Vec2 jac[3];
+      double angle = 0.0;
+      turning(x, t, jac, angle);
+      const StripLaw law = triple_law(x, t, mu);
+      energy += kWidth * h_ * law.potential;
+      const Vec2 jw = w(t) * jac[0] + w(t + 1) * jac[1] + w(t + 2) * jac[2];
+      grad += kWidth * law.force * (angle < 0.0 ? -1.0 : 1.0) * jw;
+      double c = law.slope;
+      if (std::abs(angle) < 1e-12 && moment_prev_[idx(t)] > 0.0) {
+        c = bending_.b + bending_.hb / bending_.kappa0;
+      }
+      block += kWidth * c / h_ * jw * jw.transpose();
+    }
+    if (g != nullptr) *g = grad;
+    if (k != nullptr) *k = block;
+    return energy;
   }
 
   /// Edges whose piece of the return mapping differs between x and y.
@@ -340,7 +528,17 @@ class Strip {
  private:
   static std::size_t idx(int i) { return static_cast<std::size_t>(i); }
 
+  void build_tilted() {
+    if (!(s_.inner_stiffness > 0.0)) return;
+    tilted_.resize(static_cast<std::size_t>(n_ - 1));
+    const double stiffness = s_.inner_stiffness * tension_.fm / tension_.emt;
+    for (int e = 0; e < n_ - 1; ++e) {
+      tilted_[idx(e)] = TiltedLaw(tension_, tension_prev_[idx(e)], strain_prev_[idx(e)], stiffness);
+    }
+  }
+
   StripLaw edge_law_at(int e, double eps, double mu) const {
+    if (s_.inner_stiffness > 0.0) return tilted_[idx(e)].at(eps);
     return strip_tension_law(tension_, tension_prev_[idx(e)], eps, mu);
   }
   StripLaw triple_law_at(int t, double kappa, double mu) const {
@@ -389,39 +587,10 @@ class Strip {
     return energy;
   }
 
-  /// The terms of Phi that involve particle i (exact law at mu), with gradient and block.
+  /// The terms of Phi that involve particle i (exact law at mu), with gradient and block: the
+  /// hat of width 1 centred on i.
   double local_energy(const Eigen::VectorXd& x, int i, double mu, Vec2* g, Mat2* k) const {
-    Vec2 grad;
-    Mat2 block;
-    double energy = particle_terms(x, i, &grad, &block);
-    for (int e = std::max(0, i - 1); e <= std::min(n_ - 2, i); ++e) {
-      const Vec2 d = x.segment<2>(2 * e + 2) - x.segment<2>(2 * e);
-      const double l = d.norm();
-      const Vec2 u = d / l;
-      const StripLaw law = edge_law(x, e, mu);
-      energy += kWidth * h_ * law.potential;
-      grad += (e == i ? -1.0 : 1.0) * kWidth * law.force * u;
-      const Mat2 uu = u * u.transpose();
-      block += kWidth * law.slope / h_ * uu +
-               kWidth * std::max(law.force, 0.0) / l * (Mat2::Identity() - uu);
-    }
-    for (int t = std::max(0, i - 2); t <= std::min(n_ - 3, i); ++t) {
-      Vec2 jac[3];
-      double angle = 0.0;
-      turning(x, t, jac, angle);
-      const StripLaw law = triple_law(x, t, mu);
-      energy += kWidth * h_ * law.potential;
-      const Vec2 j = jac[i - t];
-      grad += kWidth * law.force * (angle < 0.0 ? -1.0 : 1.0) * j;
-      double c = law.slope;
-      if (std::abs(angle) < 1e-12 && moment_prev_[idx(t)] > 0.0) {
-        c = bending_.b + bending_.hb / bending_.kappa0;
-      }
-      block += kWidth * c / h_ * j * j.transpose();
-    }
-    if (g != nullptr) *g = grad;
-    if (k != nullptr) *k = block;
-    return energy;
+    return hat_energy(x, i, i, i, 1, mu, g, k);
   }
 
   static void add_block(std::vector<Eigen::Triplet<double>>& model, int a, int b,
@@ -438,7 +607,8 @@ class Strip {
   BendingBand bending_;
   std::vector<double> mass_;
   Eigen::VectorXd x_, previous_x_, target_;
-  std::vector<double> tension_prev_, moment_prev_;
+  std::vector<double> tension_prev_, strain_prev_, moment_prev_;
+  std::vector<TiltedLaw> tilted_;
   mutable std::vector<double> edge_memory_, triple_memory_;
 };
 
@@ -449,17 +619,94 @@ StripLaw strip_tension_law(const TensileBand& band, double previous, double eps,
   return band_law(band, previous, eps, mu, width, mu * 1e-3 * band.fm * 1e-3);
 }
 
+StripLaw strip_tilted_tension_law(const TensileBand& band, double previous,
+                                  double previous_strain, double stiffness, double eps) {
+  return TiltedLaw(band, previous, previous_strain, stiffness).at(eps);
+}
+
 StripLaw strip_bending_law(const BendingBand& band, double previous, double kappa, double mu) {
   return band_law(band, previous, kappa, mu, std::max(mu * previous, mu * band.hb), 0.0);
 }
+
+namespace {
+
+/// Linear interpolation from every `factor`-th particle of an n-particle strip ((n - 1) a
+/// multiple of factor) to all of them, per coordinate.
+Eigen::SparseMatrix<double> strip_prolongation(int n, int factor) {
+  const int coarse = (n - 1) / factor + 1;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int i = 0; i < n; ++i) {
+    const int left = i / factor;
+    const double t = static_cast<double>(i - left * factor) / factor;
+    for (int d = 0; d < 2; ++d) {
+      entries.emplace_back(2 * i + d, 2 * left + d, 1.0 - t);
+      if (t > 0.0) entries.emplace_back(2 * i + d, 2 * (left + 1) + d, t);
+    }
+  }
+  Eigen::SparseMatrix<double> p(2 * n, 2 * coarse);
+  p.setFromTriplets(entries.begin(), entries.end());
+  return p;
+}
+
+/// Newton iterations on the coarse subspace x + P v: model P^T H P (the element tangents,
+/// no reach), gradient P^T g, Armijo on the fine potential, the fine smoothing after each.
+/// Stops at the tolerance or when the line search finds no decrease.
+void coarse_iterations(const Strip& strip, const StripSettings& settings,
+                       const Eigen::SparseMatrix<double>& prolongation, double mu,
+                       Eigen::VectorXd& x, StripStep& record) {
+  const Eigen::SparseMatrix<double> restriction = prolongation.transpose();
+  Eigen::VectorXd gradient;
+  std::vector<Eigen::Triplet<double>> blocks;
+  Eigen::SparseMatrix<double> model(x.size(), x.size());
+  for (int k = 0; k < settings.coarse_newton; ++k) {
+    blocks.clear();
+    const double energy = strip.evaluate(x, mu, &gradient, &blocks, nullptr);
+    if (strip.residual(gradient) < settings.tolerance) return;
+    model.setFromTriplets(blocks.begin(), blocks.end());
+    const Eigen::SparseMatrix<double> coarse = restriction * model * prolongation;
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(coarse);
+    if (solver.info() != Eigen::Success) return;
+    const Eigen::VectorXd direction = prolongation * solver.solve(-(restriction * gradient));
+    const double slope = gradient.dot(direction);
+    double alpha = 1.0;
+    bool decreased = false;
+    for (int halving = 0; halving < 60 && !decreased; ++halving) {
+      ++record.evaluations;
+      decreased = strip.evaluate(x + alpha * direction, mu, nullptr, nullptr, nullptr) <=
+                  energy + 1e-4 * alpha * slope;
+      if (!decreased) alpha *= 0.5;
+    }
+    ++record.coarse;
+    if (!decreased) return;
+    x += alpha * direction;
+    record.hat_moves += strip.smooth(x, mu);
+  }
+}
+
+}  // namespace
 
 StripResult run_strip(const StripSettings& settings, std::FILE* trace) {
   if (settings.particles < 3) throw std::invalid_argument("strip: fewer than 3 particles");
   if (settings.steps < 0 || !(settings.step_s > 0.0) || !(settings.tolerance > 0.0)) {
     throw std::invalid_argument("strip: steps, step or tolerance out of range");
   }
+  if (settings.hat_levels < 0 || settings.hat_sweeps < 1 || settings.coarse_newton < 0) {
+    throw std::invalid_argument("strip: hat levels, hat sweeps or coarse iterations out of range");
+  }
+  if (settings.inner_stiffness < 0.0 || (settings.inner_stiffness > 0.0 && settings.path_mu0 > 0.0)) {
+    throw std::invalid_argument("strip: the tilted plateau is not combined with path-following");
+  }
+  if (settings.coarse_newton > 0 &&
+      (settings.coarse_factor < 2 || settings.coarse_factor >= settings.particles - 1 ||
+       (settings.particles - 1) % settings.coarse_factor != 0)) {
+    throw std::invalid_argument("strip: the coarse factor must divide particles - 1 and leave "
+                                "at least 3 coarse particles");
+  }
   Strip strip(settings);
   const int n = strip.particles();
+  const Eigen::SparseMatrix<double> prolongation =
+      settings.coarse_newton > 0 ? strip_prolongation(n, settings.coarse_factor)
+                                 : Eigen::SparseMatrix<double>();
   StripResult result;
   if (trace != nullptr) {
     std::fprintf(trace, "step,iteration,mu,residual,step_kept,branch_changes\n");
@@ -531,11 +778,16 @@ StripResult run_strip(const StripSettings& settings, std::FILE* trace) {
                      strip.branch_changes(x, next));
       }
       x = next;
-      strip.smooth(x, mu);
+      record.hat_moves += strip.smooth(x, mu);
+      if (settings.coarse_newton > 0) {
+        coarse_iterations(strip, settings, prolongation, mu, x, record);
+      }
     }
     strip.end_step(x);
     result.newton += record.newton;
     result.evaluations += record.evaluations;
+    result.coarse += record.coarse;
+    result.hat_moves += record.hat_moves;
     result.all_converged = result.all_converged && record.converged;
     result.steps.push_back(record);
   }

@@ -12,7 +12,11 @@
 // - one model refinement;
 // - the Armijo line search with the full step first;
 // - the nonlinear smoothing sweeps.
-// Optionally a path-following variant smooths the bands within the step.
+// Optionally a path-following variant smooths the bands within the step, and two kinds of
+// coarse correction move many particles at once (hat functions of every level, moved one at
+// a time like the smoothing; Newton on a coarse subspace), and a tilted tension plateau (a
+// model variant): MODEL-NOTES, "Coarse corrections and a tilted plateau, screened on the
+// strip".
 //
 // It runs in seconds and its Newton counts per step follow the cloth's (the README's figures).
 // It is not a scheduler workload: nothing here goes through the LoopRunner.
@@ -40,6 +44,24 @@ struct StripSettings {
   int model_refinements = 1;    ///< models assembled again along their own direction
   bool reach = true;            ///< the model reaches along its last direction (with memory)
   double memory = 0.3;          ///< share of an element's previous model stiffness kept
+  /// Multilevel subspace correction (0 = off): before the fine smoothing, each coarser
+  /// level l = hat_levels .. 1 (hat functions 2^l particles wide, clamped to the strip's
+  /// length) moves one hat at a time by a local Newton step with halving on the exact
+  /// local energy, like the fine smoothing moves one particle.
+  int hat_levels = 0;
+  int hat_sweeps = 1;           ///< passes over the coarse levels per smoothing
+  /// Two-level Newton (0 = off): after each fine iteration and its smoothing, up to this many
+  /// Newton iterations on the coarse subspace x + P v (every coarse_factor-th particle,
+  /// linear interpolation between; coarse_factor divides particles - 1): model P^T H P of
+  /// the model without reach, Armijo on the fine potential, then the fine smoothing. They
+  /// are counted apart from the fine Newton iterations (StripStep::coarse).
+  int coarse_newton = 0;
+  int coarse_factor = 2;
+  /// A tilted tension plateau (0 = MODEL.md 4B's rule): the force is
+  /// clamp(f_prev + E (eps - eps_prev), tU(eps), tL(eps)) with eps_prev the edge's strain at
+  /// the end of the last step and E = inner_stiffness Fm / EMT (a model change screened here,
+  /// not the contract). The bending band is left as it is. Not combined with path-following.
+  double inner_stiffness = 0.0;
   /// Path-following on the band (0 = off): the plateau's jump and (for tension) a barrier
   /// on the force are smoothed with width mu, started at path_mu0, multiplied by
   /// path_shrink when the smoothed residual is path_sigma of the stage's first, and set to
@@ -55,6 +77,8 @@ struct StripSettings {
 struct StripStep {
   int newton = 0;          ///< Newton iterations
   int evaluations = 0;     ///< potential evaluations in the line searches
+  int coarse = 0;          ///< coarse-subspace Newton iterations (coarse_newton > 0)
+  int hat_moves = 0;       ///< hat moves that lowered the energy (hat_levels > 0)
   double residual = 0.0;   ///< RMS normalised residual at the end of the step (exact law)
   bool converged = false;  ///< residual below the tolerance within max_iterations
 };
@@ -64,6 +88,8 @@ struct StripResult {
   std::vector<StripStep> steps;
   long newton = 0;
   long evaluations = 0;
+  long coarse = 0;
+  long hat_moves = 0;
   bool all_converged = true;
   std::vector<Eigen::Vector2d> positions;  ///< final (x, z) of every particle, m
   double lowest_z = 0.0;                   ///< lowest particle at the end, m
@@ -88,5 +114,10 @@ StripLaw strip_tension_law(const TensileBand& band, double previous, double eps,
 /// The bending law likewise (the plateau smoothed with width mu max(previous, HB); no
 /// barrier: a moment at zero curvature would put a kink in the unsigned turning angle).
 StripLaw strip_bending_law(const BendingBand& band, double previous, double kappa, double mu);
+/// The tilted plateau's tension law (StripSettings::inner_stiffness):
+/// clamp(previous + stiffness (eps - previous_strain), tU(eps), tL(eps)) for eps > 0, else 0,
+/// with its potential (integral from 0). Built per call here; a run builds it once a step.
+StripLaw strip_tilted_tension_law(const TensileBand& band, double previous,
+                                  double previous_strain, double stiffness, double eps);
 
 }  // namespace clothbench::kernels

@@ -67,7 +67,7 @@ StripCommand::StripCommand(CLI::App& app) {
       ->capture_default_str()->check(CLI::Range(1, 1 << 20));
   command_->add_option("--step", s.step_s, "Time step, s")
       ->capture_default_str()->check(CLI::Range(1e-6, 0.1));
-  command_->add_option("--damping", s.damping, "Velocity lost per step")
+  command_->add_option("--damping", s.damping, "Velocity lost per 4 ms, applied as a rate")
       ->capture_default_str()->check(CLI::Range(0.0, 0.99));
   command_->add_option("--tolerance", s.tolerance,
                        "Stop test: RMS of |residual| / (m |g|) over the particles")
@@ -78,6 +78,21 @@ StripCommand::StripCommand(CLI::App& app) {
   command_->add_option("--smoothing-sweeps", s.smoothing_sweeps,
                        "Nonlinear smoothing sweeps after each line search")
       ->capture_default_str()->check(CLI::Range(0, 1000));
+  command_->add_option("--hat-levels", s.hat_levels,
+                       "Coarse levels of hat-function moves before the fine smoothing (0 = none)")
+      ->capture_default_str()->check(CLI::Range(0, 30));
+  command_->add_option("--hat-sweeps", s.hat_sweeps, "Passes over the coarse levels")
+      ->capture_default_str()->check(CLI::Range(1, 100));
+  command_->add_option("--coarse-newton", s.coarse_newton,
+                       "Newton iterations on the coarse subspace after each fine one (0 = none)")
+      ->capture_default_str()->check(CLI::Range(0, 100));
+  command_->add_option("--coarse-factor", s.coarse_factor,
+                       "Coarse spacing in particles (divides --particles - 1)")
+      ->capture_default_str()->check(CLI::Range(2, 1 << 20));
+  command_->add_option("--inner-stiffness", s.inner_stiffness,
+                       "Tilt the tension plateau: the force inside the band moves with slope "
+                       "this x Fm/EMT from the last step's strain (0 = MODEL.md 4B's rule)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   command_->add_option("--model-refinements", s.model_refinements,
                        "Models assembled again along their own direction")
       ->capture_default_str()->check(CLI::Range(0, 100));
@@ -119,12 +134,23 @@ int StripCommand::run() {
   } catch (const std::exception& error) {
     return bad(fmt::format("--fabric: {}", error.what()));
   }
+  if (settings.coarse_newton > 0 &&
+      (settings.coarse_factor >= settings.particles - 1 ||
+       (settings.particles - 1) % settings.coarse_factor != 0)) {
+    return bad(fmt::format("--coarse-factor: {} does not divide --particles - 1 = {} into at "
+                           "least 2 coarse edges",
+                           settings.coarse_factor, settings.particles - 1));
+  }
+  if (settings.inner_stiffness > 0.0 && settings.path_mu0 > 0.0) {
+    return bad("--inner-stiffness: not with --path-mu0 (path-following smooths the flat plateau)");
+  }
   if (rt_percent_) settings.fabric.warp.rt_percent = *rt_percent_;
   if (bending_2hb_) settings.fabric.warp.bending_2hb = *bending_2hb_;
 
   std::printf(
       "clothbench strip: %d particles, %d steps of %g ms, %s (warp: RT %g %%, 2HB %g), "
-      "tolerance %g, smoothing %d, refinements %d, reach %s, path-following %s\n",
+      "tolerance %g, smoothing %d, refinements %d, reach %s, path-following %s, hat levels %d "
+      "x %d, coarse Newton %d (coarse spacing %d), tension plateau %s\n",
       settings.particles, settings.steps, settings.step_s * 1e3, fabric_.c_str(),
       settings.fabric.warp.rt_percent, settings.fabric.warp.bending_2hb, settings.tolerance,
       settings.smoothing_sweeps, settings.reach ? settings.model_refinements : 0,
@@ -133,7 +159,12 @@ int StripCommand::run() {
           ? fmt::format("mu0 {} x{} a stage at {} of its first, 0 below {}", settings.path_mu0,
                         settings.path_shrink, settings.path_sigma, settings.path_mu_min)
                 .c_str()
-          : "off");
+          : "off",
+      settings.hat_levels, settings.hat_sweeps, settings.coarse_newton, settings.coarse_factor,
+      settings.inner_stiffness > 0.0
+          ? fmt::format("tilted, slope {} Fm/EMT (not MODEL.md 4B's rule)", settings.inner_stiffness)
+                .c_str()
+          : "flat (MODEL.md 4B)");
   std::fflush(stdout);
 
   MemoryStream trace;
@@ -164,6 +195,14 @@ int StripCommand::run() {
   std::printf("Newton iterations %ld (a step: median %d, max %d), line-search evaluations %ld, "
               "wall %.2f s on one thread\n",
               result.newton, median, most, result.evaluations, wall);
+  if (settings.hat_levels > 0) {
+    std::printf("hat moves that lowered the energy %ld\n", result.hat_moves);
+  }
+  if (settings.coarse_newton > 0) {
+    std::printf("coarse-subspace Newton iterations %ld (each one more model, factorisation and "
+                "line search)\n",
+                result.coarse);
+  }
   std::printf("lowest particle at z = %.4f m; deepest inside the box %.3g m; %d of %d steps "
               "not converged\n",
               result.lowest_z, result.deepest_penetration, failed_steps, settings.steps);
@@ -175,6 +214,8 @@ int StripCommand::run() {
       for (const auto& step : result.steps) {
         steps.push_back({{"newton", step.newton},
                          {"evaluations", step.evaluations},
+                         {"coarse", step.coarse},
+                         {"hat_moves", step.hat_moves},
                          {"residual", step.residual},
                          {"converged", step.converged}});
       }
@@ -189,11 +230,16 @@ int StripCommand::run() {
             {"model_refinements", settings.model_refinements}, {"reach", settings.reach},
             {"memory", settings.memory}, {"path_mu0", settings.path_mu0},
             {"path_shrink", settings.path_shrink}, {"path_sigma", settings.path_sigma},
-            {"path_mu_min", settings.path_mu_min}, {"fabric", fabric_},
+            {"path_mu_min", settings.path_mu_min}, {"hat_levels", settings.hat_levels},
+            {"hat_sweeps", settings.hat_sweeps}, {"coarse_newton", settings.coarse_newton},
+            {"coarse_factor", settings.coarse_factor},
+            {"inner_stiffness", settings.inner_stiffness}, {"fabric", fabric_},
             {"warp_rt_percent", settings.fabric.warp.rt_percent},
             {"warp_bending_2hb", settings.fabric.warp.bending_2hb}}},
           {"newton", result.newton},
           {"evaluations", result.evaluations},
+          {"coarse", result.coarse},
+          {"hat_moves", result.hat_moves},
           {"newton_median", median},
           {"newton_max", most},
           {"wall_seconds", wall},

@@ -2,8 +2,11 @@
 //  - a short strip PASSES and its --json holds one entry per step whose Newton counts add up to
 //    the total, the final positions, the settings and the machine context; --trace holds one
 //    CSV row per Newton iteration;
-//  - --rt-percent 100 reaches the fabric (the settings record it);
-//  - bad input exits 2 naming the flag: an unknown fabric, a particle count below 3;
+//  - --rt-percent 100 reaches the fabric (the settings record it); --hat-levels and
+//    --coarse-newton reach the run (settings, and the coarse count in the JSON); so does
+//    --inner-stiffness, labelled as not MODEL.md 4B's rule, and refused with --path-mu0;
+//  - bad input exits 2 naming the flag: an unknown fabric, a particle count below 3, a
+//    coarse factor that does not divide the edges;
 //    and a JSON file that cannot be written (its folder is a file) exits 2, leaving that
 //    file as it was.
 // No timing is asserted.
@@ -75,6 +78,39 @@ TEST(StripCommand, AFabricOverrideReachesTheRun) {
   fs::remove_all(dir);
 }
 
+TEST(StripCommand, CoarseCorrectionsReachTheRun) {
+  const fs::path dir = scratch("coarse");
+  const auto outcome = run("strip --particles 33 --steps 30 --hat-levels 3 --coarse-newton 2 "
+                           "--coarse-factor 4 --json " + quote((dir / "s.json").string()));
+  ASSERT_EQ(outcome.exit_code, 0) << outcome.output;
+  EXPECT_NE(outcome.output.find("coarse-subspace Newton iterations"), std::string::npos)
+      << outcome.output;
+  const auto doc = nlohmann::json::parse(read(dir / "s.json"));
+  EXPECT_EQ(doc.at("settings").at("hat_levels").get<int>(), 3);
+  EXPECT_EQ(doc.at("settings").at("coarse_newton").get<int>(), 2);
+  EXPECT_EQ(doc.at("settings").at("coarse_factor").get<int>(), 4);
+  long coarse = 0;
+  for (const auto& step : doc.at("steps")) coarse += step.at("coarse").get<long>();
+  EXPECT_EQ(coarse, doc.at("coarse").get<long>());
+  EXPECT_GT(coarse, 0);  // the landing's steps do not converge in one fine iteration
+  EXPECT_TRUE(doc.at("passed").get<bool>());
+  fs::remove_all(dir);
+}
+
+TEST(StripCommand, TheTiltedPlateauReachesTheRunAndIsLabelled) {
+  const fs::path dir = scratch("tilt");
+  auto outcome = run("strip --particles 33 --steps 30 --inner-stiffness 1e-3 --json " +
+                     quote((dir / "s.json").string()));
+  ASSERT_EQ(outcome.exit_code, 0) << outcome.output;
+  EXPECT_NE(outcome.output.find("not MODEL.md 4B's rule"), std::string::npos) << outcome.output;
+  const auto doc = nlohmann::json::parse(read(dir / "s.json"));
+  EXPECT_EQ(doc.at("settings").at("inner_stiffness").get<double>(), 1e-3);
+  outcome = run("strip --particles 33 --steps 1 --inner-stiffness 1e-3 --path-mu0 0.1");
+  EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
+  EXPECT_NE(outcome.output.find("--inner-stiffness"), std::string::npos) << outcome.output;
+  fs::remove_all(dir);
+}
+
 TEST(StripCommand, BadInputExitsTwoNamingTheFlag) {
   auto outcome = run("strip --fabric no-such-cloth --steps 1");
   EXPECT_EQ(outcome.exit_code, 2);
@@ -82,6 +118,13 @@ TEST(StripCommand, BadInputExitsTwoNamingTheFlag) {
   outcome = run("strip --particles 2");
   EXPECT_EQ(outcome.exit_code, 2);
   EXPECT_NE(outcome.output.find("--particles"), std::string::npos) << outcome.output;
+  // A coarse spacing that does not divide the strip's 32 edges, or leaves one coarse edge.
+  for (const char* factor : {"5", "32"}) {
+    outcome = run(std::string("strip --particles 33 --steps 1 --coarse-newton 1 --coarse-factor ") +
+                  factor);
+    EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
+    EXPECT_NE(outcome.output.find("--coarse-factor"), std::string::npos) << outcome.output;
+  }
   // A JSON file under a regular file cannot be written.
   const fs::path dir = scratch("unwritable");
   std::ofstream(dir / "blocker") << "not a directory\n";
