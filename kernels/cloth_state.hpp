@@ -62,14 +62,18 @@ struct ClothState {
   /// loading curve adds to the curvature's terms, {plateau, unloading} (potential_elements.hpp
   /// bending_offloading); 32 MB at the paper's 1001^2.
   std::vector<double> triple_offloading;
+  /// Per step, under the tilted tension plateau only (empty otherwise): kTiltedPieceDoubles
+  /// (5) per edge id, the pieces of its law (tilted_plateau.hpp); 80 MB at the paper's 1001^2.
+  std::vector<double> edge_plateau;
   /// External forces (sparse: a few particles at most; looked up only for forced slots).
   std::vector<ExternalForce> external_forces;
 
   /// Allocates every array for `slots` particles (zero-filled); gradient_old only with
   /// `cg_history` (the nonlinear CG minimiser's), triple_offloading only with `vector_kernel`,
-  /// and edge_scratch with 3 doubles a slot instead of 2 with `newton` (NewtonSystem).
+  /// edge_scratch with 3 doubles a slot instead of 2 with `newton` (NewtonSystem), and
+  /// edge_plateau only with `tilted_plateau`.
   void allocate(std::int64_t slots, bool cg_history = true, bool vector_kernel = false,
-                bool newton = false) {
+                bool newton = false, bool tilted_plateau = false) {
     const auto n = static_cast<std::size_t>(slots);
     for (auto* v : {&position, &step_start, &target, &gradient, &direction}) v->assign(3 * n, 0.0);
     gradient_old.assign(cg_history ? 3 * n : 0, 0.0);
@@ -82,10 +86,12 @@ struct ClothState {
     triple_breakpoints.assign(4 * n, 0.0);
     triple_offloading.assign(vector_kernel ? 4 * n : 0, 0.0);
     triple_offloading.shrink_to_fit();
+    edge_plateau.assign(tilted_plateau ? 10 * n : 0, 0.0);
+    edge_plateau.shrink_to_fit();
   }
   /// Hands back the pages of unused slots (slot_pages.hpp) of the arrays no loop reads at an
   /// unused slot: x^n, x~, the gradients, the direction, the block-Jacobi blocks, the bending
-  /// cache, the per-evaluation scratch (an AMRC event writes it only at the ids of active
+  /// cache and the tilted plateau's pieces, the per-evaluation scratch (an AMRC event writes it only at the ids of active
   /// elements, AdaptiveMesh::begin_change), and the forces and moments (zero at every element
   /// that is not active, AdaptiveMesh::carry_forces, so the state digested over every slot is
   /// the same either way). Not position. Returns the bytes handed back.
@@ -95,7 +101,8 @@ struct ClothState {
                     release_slot_pages(triple_moment, 2, runs) +
                     release_slot_pages(triple_offloading, 4, runs) + release_edge_scratch(runs) +
                     release_slot_pages(triple_scratch, 6, runs) +
-                    release_slot_pages(triple_breakpoints, 4, runs);
+                    release_slot_pages(triple_breakpoints, 4, runs) +
+                    release_slot_pages(edge_plateau, 10, runs);
     for (auto* v : {&step_start, &target, &gradient, &gradient_old, &direction}) {
       b += release_slot_pages(*v, 3, runs);
     }
@@ -116,7 +123,7 @@ struct ClothState {
     std::size_t b = preconditioner.capacity() * sizeof(float);
     for (const auto* v : {&position, &step_start, &target, &gradient, &gradient_old, &direction,
                           &edge_force, &triple_moment, &edge_scratch, &triple_scratch,
-                          &triple_breakpoints, &triple_offloading}) {
+                          &triple_breakpoints, &triple_offloading, &edge_plateau}) {
       b += v->capacity() * sizeof(double);
     }
     return b;

@@ -126,6 +126,9 @@ FabricMaterial FabricMaterial::from_kes(const KesParameters& fabric) {
   FabricMaterial material;
   material.tensile[0] = TensileBand::from_kes(fabric.warp, fabric.fm_gf_per_cm);
   material.tensile[1] = TensileBand::from_kes(fabric.weft, fabric.fm_gf_per_cm);
+  for (TensileBand& band : material.tensile) {
+    band.plateau_slope = fabric.tension_plateau_slope * band.fm / band.emt;
+  }
   material.bending[0] = BendingBand::from_kes(fabric.warp, fabric.kappa0_per_cm);
   material.bending[1] = BendingBand::from_kes(fabric.weft, fabric.kappa0_per_cm);
   material.areal_density = fabric.weight_mg_per_cm2 * 0.01;  // mg/cm^2 -> kg/m^2

@@ -29,6 +29,10 @@ struct TensileBand {
   double emt = 0.0;  ///< EMT as a strain fraction (> 0)
   double p = 1.0;    ///< loading exponent (> 0)
   double q = 1.0;    ///< unloading exponent (>= p)
+  /// E, N/m per unit strain: the slope of the force inside the band under the tilted plateau
+  /// ([fabric] tension_plateau_slope R > 0, E = R Fm / EMT; tilted_plateau.hpp). 0: the flat
+  /// plateau of MODEL.md 4B, which every kernel implements.
+  double plateau_slope = 0.0;
 
   /// From Kawabata units: EMT %, LT, RT % of `direction`; Fm in gf/cm.
   static TensileBand from_kes(const KesDirection& direction, double fm_gf_per_cm);

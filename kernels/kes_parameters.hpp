@@ -21,6 +21,9 @@ struct KesParameters {
   double thickness_mm = 0.3;        ///< T: thickness at 0.5 gf/cm^2, mm
   double fm_gf_per_cm = 500.0;      ///< Fm: maximum tensile load of the KES test, gf / cm
   double kappa0_per_cm = 0.1;       ///< kappa0 of the bending band's smooth closure, 1 / cm
+  /// R: the force's slope inside the tensile band in units of Fm / EMT (an opt-in variant of
+  /// the model, kernels/tilted_plateau.hpp); 0 keeps MODEL.md 4B's flat plateau. 0 <= R < p.
+  double tension_plateau_slope = 0.0;
 };
 
 }  // namespace clothbench::kernels

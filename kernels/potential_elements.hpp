@@ -11,6 +11,7 @@
 #include "kernels/ghost_nodes.hpp"
 #include "kernels/loop_bytes.hpp"
 #include "kernels/step_context.hpp"
+#include "kernels/tilted_plateau.hpp"
 
 namespace clothbench::kernels {
 
@@ -147,8 +148,11 @@ inline EdgeTerm edge_term(const StepContext& ctx, std::int64_t id, const Positio
   term.length = e.norm();
   const double rest = mesh.edge_rest[id], width = mesh.edge_width[id];
   term.strain = term.length / rest - 1.0;
-  const ReturnMapped r = fast_return_map(ctx.material.tensile[element_direction(id)],
-                                         ctx.state.edge_force[id], term.strain, nullptr);
+  const TensileBand& band = ctx.material.tensile[element_direction(id)];
+  const ReturnMapped r =
+      band.plateau_slope > 0.0
+          ? tilted_return_map(band, &ctx.state.edge_plateau[kTiltedPieceDoubles * id], term.strain)
+          : fast_return_map(band, ctx.state.edge_force[id], term.strain, nullptr);
   term.energy = width * rest * r.potential;
   term.force = r.force;
   term.slope = r.slope;

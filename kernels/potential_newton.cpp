@@ -55,13 +55,21 @@ EdgeCensus PotentialObjective::edge_census(LoopRunner& run, bool compare) {
   // x's share, the previous force and the old branch read; the branch written.
   const LoopBytes census_bytes{.read = bytes::kSlotShare * bytes::kVector3 + bytes::kDouble + 1.0,
                                .written = 1.0};
+  const bool tilted = tilted_plateau(ctx_.material);
   run.for_each<EdgeCensus>(
       ElementKind::edges, &census_partials_, census_bytes, [&](std::int64_t id, EdgeCensus& acc) {
         const Eigen::Vector3d e =
             vec3(st.position, mesh.next[id]) - vec3(st.position, element_slot(id));
         const double strain = e.norm() / mesh.edge_rest[id] - 1.0;
         BandBranch branch = BandBranch::slack;
-        if (strain > 0.0) {
+        if (tilted) {  // the line inside the band counted as the plateau
+          switch (tilted_piece(&st.edge_plateau[kTiltedPieceDoubles * id], strain)) {
+            case TiltedPiece::slack: break;
+            case TiltedPiece::unloading: branch = BandBranch::unloading; break;
+            case TiltedPiece::line: branch = BandBranch::plateau; break;
+            case TiltedPiece::loading: branch = BandBranch::loading; break;
+          }
+        } else if (strain > 0.0) {
           branch = band_branch(ctx_.material.tensile[element_direction(id)].curves(strain),
                                st.edge_force[id]);
         }

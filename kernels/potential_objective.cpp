@@ -453,6 +453,22 @@ void PotentialObjective::move(LoopRunner& run, double delta) {
 
 void PotentialObjective::prepare_history(LoopRunner& run) {
   ClothState& st = ctx_.state;
+  if (tilted_plateau(ctx_.material)) {
+    // Each edge's law for the step from its force and strain at the step's start: x^n's share,
+    // next, the rest length and the force read; the pieces written.
+    const LoopBytes plateau_bytes{
+        .read = bytes::kSlotShare * bytes::kVector3 + bytes::kIndex + bytes::kFloat +
+                bytes::kDouble,
+        .written = kTiltedPieceDoubles * bytes::kDouble};
+    run.for_each(ElementKind::edges, plateau_bytes, [&](std::int64_t id) {
+      const std::int64_t a = element_slot(id), b = ctx_.mesh.next[id];
+      const double previous_strain =
+          (vec3(st.step_start, b) - vec3(st.step_start, a)).norm() / ctx_.mesh.edge_rest[id] -
+          1.0;
+      tilted_pieces(ctx_.material.tensile[element_direction(id)], st.edge_force[id],
+                    previous_strain, &st.edge_plateau[kTiltedPieceDoubles * id]);
+    });
+  }
   // The moment read, its two breakpoints written, and under the vector kernel (whose state
   // holds triple_offloading) what the off-loading potentials take from them.
   const bool offloading = !st.triple_offloading.empty();

@@ -18,6 +18,7 @@
 #include "kernels/potential_objective.hpp"
 #include "kernels/slot_pages.hpp"
 #include "kernels/step_context.hpp"
+#include "kernels/tilted_plateau.hpp"
 #include "kernels/violation_objective.hpp"
 
 namespace clothbench::kernels {
@@ -32,7 +33,9 @@ Simulation::Simulation(const SimulationConfig& config)
   state_.allocate(mesh_.slot_count(), config_.solver.method != StepMethod::newton,
                   config_.solver.kernel == ElementKernel::vector &&
                       config_.solver.formulation == Formulation::potential,
-                  config_.solver.method == StepMethod::newton);
+                  config_.solver.method == StepMethod::newton,
+                  config_.fabric.tension_plateau_slope > 0.0 &&
+                      config_.solver.formulation == Formulation::potential);
   place_initial_positions();
   if (const std::vector<ConfigProblem> problems = validate(config_); !problems.empty()) {
     throw std::invalid_argument(problems.front().key + ": " + problems.front().problem + " (" +
@@ -478,7 +481,10 @@ std::size_t estimate_memory_bytes(const SimulationConfig& config) {
   const std::size_t vcycle = kind == Preconditioner::vcycle ? n * VcyclePreconditioner::kBytesPerSlot : 0;
   const std::size_t newton =
       resolved_method(config.solver) == StepMethod::newton ? n * NewtonSystem::kBytesPerSlot : 0;
-  return n * per_slot + lines + multigrid + vcycle + newton + (16u << 20);
+  // The tilted tension plateau's pieces: 5 doubles an edge id.
+  const std::size_t tilted =
+      config.fabric.tension_plateau_slope > 0.0 ? n * 2 * kTiltedPieceDoubles * sizeof(double) : 0;
+  return n * per_slot + lines + multigrid + vcycle + newton + tilted + (16u << 20);
 }
 
 }  // namespace clothbench::kernels

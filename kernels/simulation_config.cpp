@@ -3,6 +3,8 @@
 #include "kernels/simulation_config.hpp"
 
 #include <array>
+#include <cmath>
+#include <sstream>
 #include <utility>
 
 namespace clothbench::kernels {
@@ -79,6 +81,58 @@ std::optional<ElementKernel> element_kernel_from_string(std::string_view text) {
 std::vector<std::string> element_kernel_names() { return names_of(kElementKernels); }
 std::vector<std::string> preconditioner_names() { return names_of(kPreconditioners); }
 
+namespace {
+
+std::string number_text(double value) {
+  std::ostringstream text;
+  text.precision(6);
+  text << value;
+  return text.str();
+}
+
+// The tilted tension plateau (kernels/tilted_plateau.hpp): R must leave the band's curves
+// steeper than the line beyond EMT (R < p in both directions), and only the reference kernel
+// of the potential formulation implements it.
+void tilted_plateau_problems(const SimulationConfig& config, const SolverConfig& solver,
+                             std::vector<ConfigProblem>& problems) {
+  const double slope = config.fabric.tension_plateau_slope;
+  const std::string key = "fabric.tension_plateau_slope";
+  if (!(slope >= 0.0) || !std::isfinite(slope)) {
+    problems.push_back({key, "", "got " + number_text(slope),
+                        "expected a number >= 0 (0: the flat plateau of MODEL.md 4B)"});
+    return;
+  }
+  if (slope == 0.0) return;
+  for (const auto& [name, direction] :
+       {std::pair{"warp", &config.fabric.warp}, std::pair{"weft", &config.fabric.weft}}) {
+    const double p = 2.0 / direction->lt - 1.0;
+    if (!(slope < p)) {
+      problems.push_back(
+          {key, "fabric." + std::string(name) + ".lt",
+           "got " + number_text(slope) + ", not below the " + name +
+               " loading exponent p = 2/LT - 1 = " + number_text(p) + " (LT = " +
+               number_text(direction->lt) + ")",
+           "expected 0 <= tension_plateau_slope < p, so that the band's curves stay steeper than "
+           "the plateau's line beyond EMT"});
+      return;
+    }
+  }
+  if (solver.formulation == Formulation::violation) {
+    problems.push_back({key, "solver.formulation",
+                        "the tilted tension plateau is a return mapping of the potential "
+                        "formulation; the violation formulation keeps MODEL.md's band",
+                        "expected formulation = \"potential\", or tension_plateau_slope = 0"});
+  } else if (solver.kernel == ElementKernel::vector) {
+    problems.push_back({key, "solver.kernel",
+                        "the vector element kernel implements the flat plateau of MODEL.md 4B "
+                        "only",
+                        "expected kernel = \"reference\" with tension_plateau_slope > 0, or "
+                        "tension_plateau_slope = 0"});
+  }
+}
+
+}  // namespace
+
 std::vector<ConfigProblem> validate(const SimulationConfig& config) {
   std::vector<ConfigProblem> problems;
   const SolverConfig solver = resolved_solver(config.solver);
@@ -148,6 +202,7 @@ std::vector<ConfigProblem> validate(const SimulationConfig& config) {
                         "[amrc] enabled = true (ghost particles)",
                         "expected gradient = \"analytic\", formulation = \"potential\" or AMRC off"});
   }
+  tilted_plateau_problems(config, solver, problems);
   return problems;
 }
 

@@ -143,8 +143,9 @@ int run_scene(const RunOptions& options) {
     owned = std::make_unique<kernels::Simulation>(scene.simulation);
   } catch (const std::invalid_argument& error) {
     // Combinations the kernel refuses (e.g. the violation formulation's numeric gradient with
-    // AMRC): named with the scene file, exit 2, nothing written.
-    fmt::print(stderr, "clothbench: {}: [solver] / [amrc]: {}\n", scene.file.string(), error.what());
+    // AMRC, or one a command-line override made): named with the scene file and the setting's
+    // "section.key", exit 2, nothing written.
+    fmt::print(stderr, "clothbench: {}: {}\n", scene.file.string(), error.what());
     return kExitBadInput;
   }
   kernels::Simulation& simulation = *owned;

@@ -289,6 +289,8 @@ nlohmann::json summary_json(const RunSummary& s, const Scene& scene, const std::
         {"preconditioner",
          kernels::to_string(kernels::resolved_preconditioner(scene.simulation.solver))},
         {"settings", solver_settings_json(scene.simulation.solver)}}},
+      // Model variants a scene opted into (0: MODEL.md's own law).
+      {"model", {{"tension_plateau_slope", scene.simulation.fabric.tension_plateau_slope}}},
       {"cg_iterations", s.total_iterations},
       {"linear_iterations", s.total_linear_iterations},
       {"evaluations", s.total_evaluations},

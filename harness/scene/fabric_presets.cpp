@@ -10,8 +10,9 @@ namespace {
 
 const std::vector<std::string> kDirectionKeys = {"emt_percent", "lt", "rt_percent", "bending_b",
                                                  "bending_2hb"};
-const std::vector<std::string> kFabricKeys = {"weight_mg_per_cm2", "thickness_mm", "fm_gf_per_cm",
-                                              "kappa0_per_cm",     "warp",         "weft"};
+const std::vector<std::string> kFabricKeys = {
+    "weight_mg_per_cm2", "thickness_mm", "fm_gf_per_cm", "kappa0_per_cm",
+    "tension_plateau_slope", "warp", "weft"};
 
 // One thread direction's tensile and bending data (MODEL.md section 3).
 void read_direction(const TableReader& reader, kernels::KesDirection& direction) {
@@ -43,6 +44,10 @@ void read_fabric(const TableReader& reader, kernels::KesParameters& fabric,
     fabric.fm_gf_per_cm = *v;
   if (auto v = reader.number("kappa0_per_cm", NumberRange::positive(), "1/cm"))
     fabric.kappa0_per_cm = *v;
+  // The tilted tension plateau (kernels/tilted_plateau.hpp): opt-in, in units of Fm / EMT;
+  // its bound against the loading exponent is kernels::validate's.
+  if (auto v = reader.number("tension_plateau_slope", NumberRange::half_open(0.0, 1.0), "Fm/EMT"))
+    fabric.tension_plateau_slope = *v;
   if (const toml::table* warp = reader.table("warp")) {
     read_direction(TableReader(*warp, reader.file(), reader.section() + ".warp"), fabric.warp);
   }

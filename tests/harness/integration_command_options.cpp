@@ -436,6 +436,38 @@ TEST_F(CommandOptions, RunGradientNumericReachesTheKernel) {
   fs::remove_all(analytic_out);
 }
 
+TEST_F(CommandOptions, RunWithTheTiltedPlateauVerifiesAndRecordsTheModel) {
+  const fs::path out = fresh_dir("tilted-plateau");
+  const RemoveAtExit remove{out};
+  // The tiny scene with the opt-in tilted tension plateau added as a [fabric] override.
+  std::ifstream in(kScene);
+  std::stringstream text;
+  text << in.rdbuf() << "\n[fabric]\ntension_plateau_slope = 1e-3\n";
+  fs::create_directories(out);
+  const fs::path scene = out / "tiny-tilted.toml";
+  std::ofstream(scene) << text.str();
+  const Outcome o = run("run " + quote(scene.string()) + " --steps 4 --no-vtk --out " +
+                            quote((out / "runs").string()),
+                        "OMP_NUM_THREADS=1");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("\nVerification: PASSED"));
+  const json tilted = read_json(out / "runs" / "tiny-tilted" / "summary.json");
+  EXPECT_EQ(tilted["model"]["tension_plateau_slope"], 1e-3) << tilted["model"].dump();
+  EXPECT_TRUE(tilted["verification"]["passed"].get<bool>());
+  Outcome flat_run;
+  const json flat = tiny_run(out / "flat", "", flat_run);
+  ASSERT_EQ(flat_run.exit_code, 0) << flat_run.output;
+  EXPECT_EQ(flat["model"]["tension_plateau_slope"], 0.0) << flat["model"].dump();
+  // A located error for a combination the kernel cannot run, before anything is written.
+  const Outcome bad = run("run " + quote(scene.string()) + " --steps 1 --no-vtk --kernel vector --out " +
+                          quote((out / "bad").string()));
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("tiny-tilted.toml: fabric.tension_plateau_slope: the vector "
+                                    "element kernel implements the flat plateau"))
+      << bad.output;
+  EXPECT_FALSE(fs::exists(out / "bad"));
+}
+
 TEST_F(CommandOptions, ExperimentTimeErrorRunsOnTheGivenScene) {
   const fs::path out = fresh_dir("experiment-scene");
   // 9 x 9 particles, 3 steps (the tiny size's own base: 21 x 21, 40 steps). The scene's own

@@ -47,6 +47,46 @@ TEST(SceneLoader, ElementKernelReadsAndTheVectorOneIsRefusedForTheViolationFormu
   }
 }
 
+TEST(SceneLoader, TiltedPlateauReadsAndItsUnrunnableCombinationsAreLocated) {
+  const std::string base = "[cloth]\nparticles = [9, 9]\n[fabric]\ntension_plateau_slope = 1e-3\n";
+  EXPECT_DOUBLE_EQ(parse_scene(base, "tilt.toml", kPresets).simulation.fabric.tension_plateau_slope,
+                   1e-3);
+  EXPECT_EQ(parse_scene("[cloth]\nparticles = [9, 9]\n", "tilt.toml", kPresets)
+                .simulation.fabric.tension_plateau_slope,
+            0.0);
+  auto error_of = [](const std::string& text) -> std::string {
+    try {
+      (void)parse_scene(text, "tilt.toml", kPresets);
+    } catch (const SceneError& error) {
+      return error.what();
+    }
+    return {};
+  };
+  EXPECT_THAT(error_of("[cloth]\nparticles = [9, 9]\n[fabric]\ntension_plateau_slope = 1.5\n"),
+              StartsWith("tilt.toml:4:25: [fabric] tension_plateau_slope: 1.5 is out of range"));
+  EXPECT_THAT(error_of("[cloth]\nparticles = [9, 9]\n[fabric]\ntension_plateau_slope = -0.1\n"),
+              StartsWith("tilt.toml:4:25: [fabric] tension_plateau_slope: -0.1 is out of range"));
+  // LT = 1.9: p = 2/1.9 - 1 = 0.0526, below the slope asked for.
+  EXPECT_EQ(error_of(base + "[fabric.weft]\nlt = 1.9\n"), "");
+  EXPECT_THAT(error_of("[cloth]\nparticles = [9, 9]\n[fabric]\ntension_plateau_slope = 0.1\n"
+                       "[fabric.weft]\nlt = 1.9\n"),
+              StartsWith("tilt.toml:4:25: [fabric] tension_plateau_slope: got 0.1, not below the "
+                         "weft loading exponent p = 2/LT - 1 = 0.0526316 (LT = 1.9)"));
+  EXPECT_THAT(error_of(base + "[solver]\nformulation = \"violation\"\n"),
+              StartsWith("tilt.toml:4:25: [fabric] tension_plateau_slope: the tilted tension "
+                         "plateau is a return mapping of the potential formulation"));
+  EXPECT_THAT(error_of(base + "[solver]\nkernel = \"vector\"\n"),
+              StartsWith("tilt.toml:4:25: [fabric] tension_plateau_slope: the vector element "
+                         "kernel implements the flat plateau of MODEL.md 4B only"));
+  // The kernel refuses the same combinations for a configuration built in code.
+  kernels::SimulationConfig config = parse_scene(base, "tilt.toml", kPresets).simulation;
+  config.solver.kernel = kernels::ElementKernel::vector;
+  EXPECT_THROW(kernels::Simulation{config}, std::invalid_argument);
+  config.solver.kernel = kernels::ElementKernel::reference;
+  config.fabric.tension_plateau_slope = 3.0;  // above p = 2/0.65 - 1 = 2.08
+  EXPECT_THROW(kernels::Simulation{config}, std::invalid_argument);
+}
+
 TEST(SceneLoader, NumericGradientReadsAndIsRefusedWithAmrcForTheViolationFormulation) {
   const std::string text =
       "[cloth]\nparticles = [9, 9]\n[solver]\nformulation = \"violation\"\n"

@@ -31,6 +31,7 @@ struct Case {
   bool smoothing = false;    ///< Newton with nonlinear block Gauss-Seidel after each line search
   bool vcycle = false;       ///< Newton's PCG preconditioned by the V-cycle
   bool vector = false;       ///< the vector element kernel (ElementKernel::vector)
+  bool tilted = false;       ///< the tilted tension plateau ([fabric] tension_plateau_slope)
 };
 
 /// Events on every one of the four steps: a pull (on a particle AMRC may have coarsened away
@@ -124,6 +125,8 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   if (test_case.events) {
     c.events = scripted_events();
   }
+  // Steeper than a scene would take, so that many edges sit on the line inside the band.
+  if (test_case.tilted) c.fabric.tension_plateau_slope = 1e-2;
   return c;
 }
 
@@ -234,7 +237,10 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                                            Case{kernels::Formulation::potential, false, false, false, true, false, true, true},
                                            Case{kernels::Formulation::potential, true, true, false, true, false, true, true},
                                            Case{kernels::Formulation::potential, false, false, false, false, false, false, false, true},
-                                           Case{kernels::Formulation::potential, true, true, false, false, false, false, false, true}),
+                                           Case{kernels::Formulation::potential, true, true, false, false, false, false, false, true},
+                                           Case{.formulation = kernels::Formulation::potential, .amrc = false, .tilted = true},
+                                           Case{.formulation = kernels::Formulation::potential, .amrc = true, .events = true,
+                                                .newton = true, .vcycle = true, .tilted = true}),
                          [](const auto& info) {
                            std::string name = info.param.formulation == kernels::Formulation::potential
                                                   ? "potential"
@@ -246,6 +252,7 @@ INSTANTIATE_TEST_SUITE_P(Formulations, BitIdentity,
                            if (info.param.smoothing) name += "_smoothing";
                            if (info.param.vcycle) name += "_vcycle";
                            if (info.param.vector) name += "_vector";
+                           if (info.param.tilted) name += "_tilted";
                            return info.param.newton ? name + "_newton" : name;
                          });
 
