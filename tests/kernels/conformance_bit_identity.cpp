@@ -71,11 +71,7 @@ kernels::SimulationConfig bit_identity_scene(const Case& test_case) {
   c.cloth.origin = {-0.22, -0.18, 0.103};
   c.cloth.initial_crumple = 0.002;
   c.cloth.pinned = {{0, 0}};
-  kernels::ObstacleConfig box;
-  box.kind = kernels::ObstacleKind::box;
-  box.center = {0.0, 0.0, 0.05};
-  box.half_extents = {0.1, 0.1, 0.05};
-  c.obstacles.push_back(box);
+  c.obstacles.push_back(testing::box_obstacle({0.0, 0.0, 0.05}, {0.1, 0.1, 0.05}));
   c.time.step = 0.004;
   c.solver.formulation = formulation;
   c.solver.max_iterations = formulation == kernels::Formulation::potential ? 25 : 6;

@@ -75,11 +75,7 @@ kernels::SimulationConfig box_scene() {
   c.cloth.block_size = 16;
   c.cloth.size_i = c.cloth.size_j = 1.0;
   c.cloth.origin = {-0.5, -0.5, 0.2515};  // lying on the box top (z = 0.25) from the start
-  kernels::ObstacleConfig box;
-  box.kind = kernels::ObstacleKind::box;
-  box.center = {0.0, 0.0, 0.125};
-  box.half_extents = {0.25, 0.25, 0.125};
-  c.obstacles.push_back(box);
+  c.obstacles.push_back(testing::box_obstacle({0.0, 0.0, 0.125}, {0.25, 0.25, 0.125}));
   c.time.step = 0.004;
   c.time.damping = 0.1;
   c.solver.tolerance = 1e-2;

@@ -47,11 +47,7 @@ TEST(Drape, ClothOverABoxComesToRest) {
   c.cloth.block_size = 8;
   c.cloth.size_i = c.cloth.size_j = 0.3;
   c.cloth.origin = {-0.15, -0.15, 0.2025};
-  kernels::ObstacleConfig box;
-  box.kind = kernels::ObstacleKind::box;
-  box.center = {0.0, 0.0, 0.1};
-  box.half_extents = {0.08, 0.08, 0.1};
-  c.obstacles.push_back(box);
+  c.obstacles.push_back(testing::box_obstacle({0.0, 0.0, 0.1}, {0.08, 0.08, 0.1}));
   c.time.step = 0.01;
   c.time.damping = 0.3;
   c.solver.tolerance = 1e-4;

@@ -8,6 +8,16 @@
 
 namespace clothbench::testing {
 
+/// An axis-aligned box obstacle (m).
+inline kernels::ObstacleConfig box_obstacle(const Eigen::Vector3d& center,
+                                            const Eigen::Vector3d& half_extents) {
+  kernels::ObstacleConfig box;
+  box.kind = kernels::ObstacleKind::box;
+  box.center = center;
+  box.half_extents = half_extents;
+  return box;
+}
+
 /// A small crumpled cloth with pins, random targets and random previous element forces in
 /// every band regime, optionally touching obstacles: every term of the cost is exercised.
 inline kernels::SimulationConfig small_cloth(bool obstacles, bool pins) {
@@ -25,11 +35,7 @@ inline kernels::SimulationConfig small_cloth(bool obstacles, bool pins) {
     sphere.center = {0.0, 0.0, -0.05};
     sphere.radius = 0.0535;
     c.obstacles.push_back(sphere);
-    kernels::ObstacleConfig box;
-    box.kind = kernels::ObstacleKind::box;
-    box.center = {0.09, 0.0, -0.05};
-    box.half_extents = {0.02, 0.2, 0.0515};
-    c.obstacles.push_back(box);
+    c.obstacles.push_back(box_obstacle({0.09, 0.0, -0.05}, {0.02, 0.2, 0.0515}));
   }
   return c;
 }

@@ -15,6 +15,7 @@
 #include "kernels/simulation.hpp"
 #include "kernels/tilted_plateau.hpp"
 #include "schedulers/registry.hpp"
+#include "kernel_fixtures.hpp"
 
 namespace clothbench {
 namespace {
@@ -95,7 +96,7 @@ std::vector<LawCase> law_cases(const TensileBand& band, std::mt19937_64& rng) {
   return cases;
 }
 
-class TiltedLaw : public testing::TestWithParam<double> {};
+class TiltedLaw : public ::testing::TestWithParam<double> {};
 
 TEST_P(TiltedLaw, ForcePotentialAndSlopeFollowTheDefinition) {
   const double ratio = GetParam();
@@ -163,7 +164,7 @@ TEST_P(TiltedLaw, ForcePotentialAndSlopeFollowTheDefinition) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Slopes, TiltedLaw, testing::Values(1e-6, 1e-3, 1e-2, 0.3));
+INSTANTIATE_TEST_SUITE_P(Slopes, TiltedLaw, ::testing::Values(1e-6, 1e-3, 1e-2, 0.3));
 
 TEST(TiltedLaw, AVanishingSlopeGivesTheFlatPlateau) {
   std::mt19937_64 rng(5);
@@ -194,11 +195,7 @@ TEST(TiltedLaw, ADrapeKeepsEveryForceInsideItsBand) {
     c.cloth.block_size = 4;
     c.cloth.size_i = c.cloth.size_j = 0.32;
     c.cloth.origin = {-0.16, -0.16, 0.103};
-    kernels::ObstacleConfig box;
-    box.kind = kernels::ObstacleKind::box;
-    box.center = {0.0, 0.0, 0.05};
-    box.half_extents = {0.08, 0.08, 0.05};
-    c.obstacles.push_back(box);
+    c.obstacles.push_back(testing::box_obstacle({0.0, 0.0, 0.05}, {0.08, 0.08, 0.05}));
     c.time.step = 0.004;
     c.time.damping = 0.1;
     c.solver.tolerance = 1e-4;
