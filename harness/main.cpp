@@ -220,6 +220,12 @@ int main(int argc, char** argv) {
                    "Loop timing for the overhead decomposition (its cost is measured)")
       ->capture_default_str()
       ->check(CLI::IsMember({"off", "loops", "chunks"}));
+  std::string sweep_instrument_only;
+  auto* sweep_instrument_only_option = sweep_command->add_option(
+      "--instrument-only", sweep_instrument_only,
+      "Comma-separated schedulers (of --schedulers) whose rows get the instrumented runs; the "
+      "other rows are timed uninstrumented only (default: every row). E.g. active-lists: the "
+      "paper's Table 2 decomposes only that scheduler's time");
   sweep_command
       ->add_option("--bind", sweep_bind,
                    "core: pin thread k to core k (hwloc); none: leave it to OMP_PROC_BIND")
@@ -369,6 +375,10 @@ int main(int argc, char** argv) {
         }
         if (*sweep_steps_option) sweep.steps = sweep_steps;
         sweep.instrument = clothbench::harness::parse_instrumentation(sweep_instrument);
+        if (*sweep_instrument_only_option) {
+          sweep.instrument_only =
+              clothbench::harness::split_list(sweep_instrument_only, "--instrument-only");
+        }
         sweep.bind = sweep_bind == "core" ? clothbench::harness::BindMode::core
                                           : clothbench::harness::BindMode::none;
         sweep.plots = !sweep_no_plots;

@@ -2,6 +2,7 @@
 #include "harness/report/sweep_table.hpp"
 
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -152,6 +153,17 @@ bool exceeds(const json& row) {
   return id && id->overheads_exceed_time;
 }
 
+/// settings.instrument, and the schedulers it was limited to (--instrument-only), if any.
+std::string instrumentation_setting(const json& settings) {
+  const std::string text = fmt::format("`{}`", settings["instrument"].get<std::string>());
+  const json only = settings.value("instrument_only", json::array());
+  if (!only.is_array() || only.empty()) return text;
+  std::vector<std::string> names;
+  for (const json& name : only) names.push_back(name.is_string() ? name.get<std::string>() : "?");
+  return fmt::format("{} for `{}` only (the other rows uninstrumented: `-` overheads)", text,
+                     fmt::join(names, "`, `"));
+}
+
 }  // namespace
 
 std::string format_row_line(const json& row) {
@@ -248,11 +260,11 @@ std::string format_markdown(const json& document) {
   out << fmt::format("# clothbench sweep: {}\n\n", scene["name"].get<std::string>());
   out << fmt::format(
       "Scene `{}` (hash {}), {} steps; time = median of {} runs (min-max shown), after a "
-      "{}-step warm-up; instrumentation `{}`; binding `{}`; OMP_WAIT_POLICY `{}`; retries of "
+      "{}-step warm-up; instrumentation {}; binding `{}`; OMP_WAIT_POLICY `{}`; retries of "
       "a disturbed run {}{}.\n",
       scene["file"].get<std::string>(), scene["hash"].get<std::string>(),
       settings["steps"].get<int>(), settings["repeat"].get<int>(),
-      settings.value("warmup_steps", 0), settings["instrument"].get<std::string>(),
+      settings.value("warmup_steps", 0), instrumentation_setting(settings),
       settings.value("bind", "none"), settings.value("omp_wait_policy", "not recorded"),
       settings.contains("retries") ? std::to_string(settings["retries"].get<int>()) : "-",
       document.value("complete", false) ? "" : " (INCOMPLETE sweep)");

@@ -2,6 +2,7 @@
 #include "harness/sweep/sweep.hpp"
 
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -172,6 +173,12 @@ json resumed_document(const std::filesystem::path& file, const Scene& scene, int
   if (old["settings"]["instrument"] != to_string(options.instrument)) {
     refuse(fmt::format("--instrument {}", old["settings"]["instrument"].get<std::string>()));
   }
+  // A document without the key instrumented every row.
+  const json old_only = old["settings"].value("instrument_only", json::array());
+  if (old_only != settings["instrument_only"]) {
+    refuse(fmt::format("settings.instrument_only = {} (this run: {}; [] is every row)",
+                       old_only.dump(), settings["instrument_only"].dump()));
+  }
   // Rows measured another way, by another build or on another machine would share one table
   // and one speed-up column without saying so. (Schedulers, thread counts, retries and
   // --oversubscribe may change: a resume may extend the grid, and rows carry their own labels.)
@@ -265,7 +272,8 @@ std::string resume_command(const SweepOptions& options) {
 
 }  // namespace
 
-int run_sweep(const SweepOptions& options) {
+int run_sweep(const SweepOptions& given) {
+  SweepOptions options = given;  // --instrument-only becomes canonical names below
   // Everything that can be wrong with the input is checked before the first run.
   Scene scene = load_scene(options.scene_file, default_presets_file());
   if (options.steps) scene.steps = *options.steps;
@@ -283,6 +291,35 @@ int run_sweep(const SweepOptions& options) {
     }
     grid.push_back({spec, driver->name(), driver->note()});
   }
+  std::vector<std::string> instrument_only;  // canonical, in the order given
+  for (const std::string& spec : options.instrument_only) {
+    if (options.instrument == kernels::Instrumentation::off) {
+      throw std::invalid_argument("--instrument-only: needs --instrument loops or chunks");
+    }
+    std::string canonical;
+    try {
+      canonical = schedulers::make_driver(spec)->name();
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(fmt::format("--instrument-only: {}", error.what()));
+    }
+    if (std::none_of(grid.begin(), grid.end(),
+                     [&](const GridScheduler& s) { return s.canonical == canonical; })) {
+      throw std::invalid_argument(fmt::format(
+          "--instrument-only: '{}' ({}) is not one of --schedulers", spec, canonical));
+    }
+    if (std::find(instrument_only.begin(), instrument_only.end(), canonical) ==
+        instrument_only.end()) {
+      instrument_only.push_back(canonical);
+    }
+  }
+  options.instrument_only = instrument_only;
+  // Whether the rows of scheduler `canonical` get instrumented runs.
+  auto instruments = [&](const std::string& canonical) {
+    return options.instrument != kernels::Instrumentation::off &&
+           (instrument_only.empty() ||
+            std::find(instrument_only.begin(), instrument_only.end(), canonical) !=
+                instrument_only.end());
+  };
   const ThreadBinder binder;
   const std::vector<int> threads =
       options.threads.empty() ? default_thread_counts(binder.cores()) : options.threads;
@@ -305,10 +342,13 @@ int run_sweep(const SweepOptions& options) {
   if (!options.quiet) {
     fmt::print(
         "clothbench sweep: {}{} ({}), {} steps, {} schedulers x {} thread counts, "
-        "repeat {} (retries {}), OMP_WAIT_POLICY {}, instrument {}, bind {}\n",
+        "repeat {} (retries {}), OMP_WAIT_POLICY {}, instrument {}{}, bind {}\n",
         options.size_class ? "class " + *options.size_class + ": " : std::string(), scene.name,
         scene.file.string(), scene.steps, grid.size(), threads.size(), options.repeat,
-        options.retries, omp_wait_policy(), to_string(options.instrument), to_string(options.bind));
+        options.retries, omp_wait_policy(), to_string(options.instrument),
+        instrument_only.empty() ? std::string()
+                                : fmt::format(" (only {})", fmt::join(instrument_only, ", ")),
+        to_string(options.bind));
     std::fflush(stdout);
   }
   // From here on Ctrl-C / SIGTERM stop the sweep after the run in progress (stop_request.hpp).
@@ -421,14 +461,17 @@ int run_sweep(const SweepOptions& options) {
   }
   write_outputs(document, options.output_dir);
 
-  const bool instrumented = options.instrument != kernels::Instrumentation::off;
-  const int runs_per_row = options.repeat * (instrumented ? 2 : 1);
-  const double row_units = options.warmup_steps + static_cast<double>(runs_per_row) * scene.steps;
-  std::size_t to_do = 0;
+  auto runs_per_row = [&](const GridScheduler& s) {
+    return options.repeat * (instruments(s.canonical) ? 2 : 1);
+  };
+  double units_to_do = 0.0;
   for (const auto& s : grid) {
-    for (int n : threads) to_do += has_row(document, {s.canonical, n}) ? 0 : 1;
+    for (int n : threads) {
+      if (has_row(document, {s.canonical, n})) continue;
+      units_to_do += options.warmup_steps + static_cast<double>(runs_per_row(s)) * scene.steps;
+    }
   }
-  ProgressBar progress(row_units * static_cast<double>(to_do), !options.quiet);
+  ProgressBar progress(units_to_do, !options.quiet);
   bool all_passed = true;
   for (const json& row : document["rows"]) all_passed = all_passed && row["verification"]["passed"].get<bool>();
 
@@ -436,6 +479,9 @@ int run_sweep(const SweepOptions& options) {
   // (checked after every run, so Ctrl-C waits for one run at most, not for a whole row).
   auto measure_row = [&](const GridScheduler& s, int n) -> std::optional<json> {
     const std::string label = fmt::format("{} x {} threads", s.canonical, n);
+    const bool instrumented = instruments(s.canonical);
+    const kernels::Instrumentation level =
+        instrumented ? options.instrument : kernels::Instrumentation::off;
     const auto driver = schedulers::make_driver(s.given);
     omp_set_num_threads(n);
     const bool bound = options.bind == BindMode::core && binder.bind_team(options.bind);
@@ -490,7 +536,7 @@ int run_sweep(const SweepOptions& options) {
       store_partial_row(document, key, plain, timed, round_trip_before);
       write_outputs(document, options.output_dir);
       return stop.signal() == 0 ||
-             plain.size() + timed.size() >= static_cast<std::size_t>(runs_per_row);
+             plain.size() + timed.size() >= static_cast<std::size_t>(runs_per_row(s));
     };
     for (int r = 0; r < options.repeat; ++r) {  // interleaved, so drift hits both alike
       if (static_cast<std::size_t>(r) >= plain.size()) {
@@ -498,7 +544,7 @@ int run_sweep(const SweepOptions& options) {
         if (!run || !keep(plain, std::move(*run))) return std::nullopt;
       }
       if (instrumented && static_cast<std::size_t>(r) >= timed.size()) {
-        std::optional<MeasuredRun> run = repetition(options.instrument);
+        std::optional<MeasuredRun> run = repetition(level);
         if (!run || !keep(timed, std::move(*run))) return std::nullopt;
       }
     }
@@ -512,8 +558,8 @@ int run_sweep(const SweepOptions& options) {
     json binding = {{"mode", to_string(options.bind)},
                     {"bound", bound},
                     {"threads", binder.record_team()}};
-    json row = make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed,
-                        options.instrument, scene.steps, std::move(binding));
+    json row = make_row(s.given, s.canonical, s.note, n, n > hardware, plain, timed, level,
+                        scene.steps, std::move(binding));
     if (n >= 2) {
       row["core_round_trip_ns"] = {{"before", round_trip_before}, {"after", round_trip_after}};
     }

@@ -3,7 +3,8 @@
 //
 //   schema "clothbench.sweep", schema_version 1, created_utc, updated_utc, complete (bool),
 //   command [argv], settings {schedulers, threads, repeat, warmup_steps, steps, instrument,
-//   bind, oversubscribe, retries, omp_wait_policy, count_reference_after_seconds (the last
+//   instrument_only [canonical scheduler names; empty: every row], bind, oversubscribe,
+//   retries, omp_wait_policy, count_reference_after_seconds (instrument_only and the last
 //   three absent in older documents)},
 //   scene {name, file, hash, source}, machine (machine_context()), openmp_environment
 //   (openmp_environment()), reference {scheduler, threads, state_digest, state_bytes,

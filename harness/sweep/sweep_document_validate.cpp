@@ -241,6 +241,9 @@ std::vector<std::string> validate_sweep_document(const json& d) {
   expect(d["settings"], "settings", "threads", is_array, "array", p);
   expect(d["settings"], "settings", "steps", is_integer, "integer", p);
   expect(d["settings"], "settings", "instrument", is_string, "string", p);
+  if (d["settings"].is_object() && d["settings"].contains("instrument_only")) {  // newer documents
+    expect(d["settings"], "settings", "instrument_only", is_array, "array", p);
+  }
   for (std::size_t i = 0; i < d["rows"].size(); ++i) {
     validate_row(d["rows"][i], fmt::format("rows[{}]", i), p);
   }

@@ -36,6 +36,10 @@ struct SweepOptions {
   double count_reference_after_seconds = 60.0;
   std::optional<int> steps;             ///< override the scene's step count
   kernels::Instrumentation instrument = kernels::Instrumentation::loops;
+  /// --instrument-only: the schedulers (specs, as given) whose rows get the instrumented runs;
+  /// empty: every row. run_sweep checks that each is one of `schedulers` and records their
+  /// canonical names in settings.instrument_only.
+  std::vector<std::string> instrument_only;
   BindMode bind = BindMode::none;
   bool allow_oversubscribe = false;  ///< thread counts above the hardware threads
   /// Re-runs of a disturbed repetition (disturbance.hpp) before it counts as disturbed.

@@ -475,4 +475,78 @@ TEST_F(SweepBinary, SizeClassPicksItsSceneAndSettingsAndIsRecorded) {
   EXPECT_TRUE(read_json(plain / "sweep.json")["settings"]["size_class"].is_null());
 }
 
+// --instrument-only: only the named schedulers' rows get instrumented runs (the paper's Table 2
+// decomposes Active-Lists' time alone); the others are timed uninstrumented, and every output
+// says which is which. A resume that changes the list, or a list outside --schedulers, is
+// refused with exit code 2.
+TEST_F(SweepBinary, InstrumentOnlyInstrumentsTheNamedSchedulersRows) {
+  const fs::path out = fresh_dir("instrument-only");
+  const std::string grid = " --schedulers static,active-lists --threads 1,2 --steps 2 --repeat 2 "
+                           "--retries 0 --no-plots --quiet --out " + quote(out.string());
+  const Outcome o = run("sweep " + quote(kScene.string()) + grid + " --instrument-only active-lists");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json d = read_json(out / "sweep.json");
+  const auto problems = clothbench::harness::validate_sweep_document(d);
+  EXPECT_TRUE(problems.empty()) << problems.front();
+  EXPECT_EQ(d["settings"]["instrument"], "loops");
+  EXPECT_EQ(d["settings"]["instrument_only"], json::array({"active-lists@active"}));
+  ASSERT_EQ(d["rows"].size(), 4u);
+  for (const json& row : d["rows"]) {
+    const bool timed = row["scheduler_canonical"] == "active-lists@active";
+    const std::string where = row["scheduler_canonical"].get<std::string>() + " x " +
+                              std::to_string(row["threads"].get<int>());
+    EXPECT_TRUE(row["verification"]["passed"].get<bool>()) << where;
+    EXPECT_EQ(row["verification"]["runs"].get<int>(), timed ? 4 : 2) << where;
+    EXPECT_EQ(row["instrumented"]["level"], timed ? "loops" : "off") << where;
+    EXPECT_EQ(row["time_seconds"]["samples"].size(), 2u) << where;
+    if (timed) {
+      EXPECT_EQ(row["instrumented"]["time_seconds"]["samples"].size(), 2u) << where;
+      EXPECT_TRUE(row["accounting"].contains("identity")) << where;
+    } else {
+      EXPECT_TRUE(row["instrumented"]["time_seconds"].is_null()) << where;
+      EXPECT_TRUE(row["accounting"].is_null()) << where;
+    }
+  }
+  const std::string table = read_text(out / "table.md");
+  EXPECT_NE(table.find("instrumentation `loops` for `active-lists@active` only"), std::string::npos)
+      << table;
+  // static's rows: Table 2's overhead columns are `-`, and there is no accounting table.
+  const std::size_t static_at = table.find("## static@blocks");
+  const std::size_t lists_at = table.find("## active-lists@active");
+  ASSERT_NE(static_at, std::string::npos) << table;
+  ASSERT_NE(lists_at, std::string::npos) << table;
+  const std::string static_part = table.substr(static_at, lists_at - static_at);
+  EXPECT_NE(static_part.find("| 1 | - | - | - | - |"), std::string::npos) << static_part;
+  EXPECT_NE(static_part.find("| 2 | - | - | - | - |"), std::string::npos) << static_part;
+  EXPECT_EQ(static_part.find("Where the time went"), std::string::npos) << static_part;
+  EXPECT_NE(table.find("Where the time went", lists_at), std::string::npos) << table;
+
+  // A resume with another list (here: every row) would mix two ways of measuring.
+  const Outcome resumed = run("sweep " + quote(kScene.string()) + grid + " --resume");
+  EXPECT_EQ(resumed.exit_code, 2) << resumed.output;
+  EXPECT_NE(resumed.output.find("settings.instrument_only = [\"active-lists@active\"]"),
+            std::string::npos)
+      << resumed.output;
+  // The same list spelled another way is the same sweep: nothing left to run.
+  const Outcome same = run("sweep " + quote(kScene.string()) + grid +
+                           " --instrument-only active-lists@active --resume");
+  EXPECT_EQ(same.exit_code, 0) << same.output;
+
+  const std::string bad_out = " --out " + quote(fresh_dir("instrument-only-bad").string());
+  const Outcome outside = run("sweep " + quote(kScene.string()) +
+                              " --schedulers static --threads 1 --instrument-only guided:1" +
+                              bad_out);
+  EXPECT_EQ(outside.exit_code, 2) << outside.output;
+  EXPECT_NE(outside.output.find("--instrument-only: 'guided:1'"), std::string::npos)
+      << outside.output;
+  EXPECT_NE(outside.output.find("is not one of --schedulers"), std::string::npos) << outside.output;
+  const Outcome off = run("sweep " + quote(kScene.string()) +
+                          " --schedulers static --threads 1 --instrument off "
+                          "--instrument-only static" + bad_out);
+  EXPECT_EQ(off.exit_code, 2) << off.output;
+  EXPECT_NE(off.output.find("--instrument-only: needs --instrument loops or chunks"),
+            std::string::npos)
+      << off.output;
+}
+
 }  // namespace
