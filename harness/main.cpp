@@ -291,6 +291,11 @@ int main(int argc, char** argv) {
       experiment_command
           ->add_option("--scene", experiment_scene, "time-error only: base scene (default: Table 1's finer)")
           ->check(CLI::ExistingFile);
+  std::string experiment_only;
+  auto* experiment_only_option = experiment_command->add_option(
+      "--only", experiment_only,
+      "time-error only: comma-separated settings to run (their labels in time_error.md, e.g. "
+      "tol-x10,cap-3); the reference and the base always run");
   auto* experiment_steps_option =
       experiment_command->add_option("--steps", experiment_steps, "Override every scene's step count")
           ->check(CLI::Range(1, INT_MAX));
@@ -400,6 +405,21 @@ int main(int argc, char** argv) {
                      "runs its own scenes)\n",
                      experiment.name.c_str());
         return kExitBadInput;
+      }
+      if (*experiment_only_option && experiment.name != "time-error") {
+        std::fprintf(stderr,
+                     "clothbench experiment: --only: only time-error has settings to choose "
+                     "from (%s runs all of its scenes)\n",
+                     experiment.name.c_str());
+        return kExitBadInput;
+      }
+      if (*experiment_only_option) {
+        try {
+          experiment.only = clothbench::harness::split_list(experiment_only, "--only");
+        } catch (const std::invalid_argument& error) {
+          std::fprintf(stderr, "clothbench experiment: %s\n", error.what());
+          return kExitBadInput;
+        }
       }
       if (*experiment_retries_option && experiment.name != "table2") {
         std::fprintf(stderr,

@@ -35,6 +35,8 @@ struct ExperimentOptions {
   bool quiet = false;                        ///< no per-run lines
   std::optional<std::filesystem::path> scene;  ///< time-error: base scene (default table1 finer)
   std::optional<int> steps;                  ///< override every scene's step count
+  /// time-error: the settings to run besides the reference and the base (labels; empty: all)
+  std::vector<std::string> only;
   int retries = 2;                           ///< table2: the sweep's --retries
   bool plots = true;
   std::vector<std::string> command_line;

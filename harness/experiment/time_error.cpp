@@ -7,11 +7,13 @@
 // Each is timed and its final surface compared with the reference's at the same material
 // points; the Pareto front of (time, RMS error) is marked in the table and the PNG.
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -231,8 +233,25 @@ int run_time_error(const ExperimentContext& context) {
     }
     write_experiment_outputs(context, "time_error",
                              {{"complete", complete}, {"base_scene", base.file.string()},
-                              {"base_particles", n}, {"steps", base.steps}, {"runs", runs}},
+                              {"base_particles", n}, {"steps", base.steps},
+                              {"only", context.options.only}, {"runs", runs}},
                              markdown(points, front, context, base));
+  };
+
+  // --only: every label must be one of this base's settings (checked before the first run).
+  double no_seconds = 0.0;
+  std::vector<std::string> known;
+  for (const Setting& setting : settings(n, base.steps, no_seconds)) known.push_back(setting.label);
+  for (const std::string& label : context.options.only) {
+    if (std::find(known.begin(), known.end(), label) == known.end()) {
+      throw std::invalid_argument(fmt::format("--only: no setting '{}' for this base (settings: {})",
+                                              label, fmt::join(known, ", ")));
+    }
+  }
+  auto chosen = [&](const Setting& setting) {
+    return setting.label == "base" || context.options.only.empty() ||
+           std::find(context.options.only.begin(), context.options.only.end(), setting.label) !=
+               context.options.only.end();
   };
 
   const VariantRun ref = run_variant(reference, "reference",
@@ -243,6 +262,7 @@ int run_time_error(const ExperimentContext& context) {
   const double ref_force = ref.contact_force.norm();
   double base_seconds = 0.0;
   for (const Setting& setting : settings(n, base.steps, base_seconds)) {
+    if (!chosen(setting)) continue;
     Scene scene = base;
     setting.apply(scene);
     Point p{run_variant(scene, setting.label, setting.description, context.driver,

@@ -98,6 +98,34 @@ TEST(ExperimentBinary, Table3ReportsEveryAmrcEvent) {
   EXPECT_EQ(doc["scenes"][1]["paper"]["particles_end"], 32832);
 }
 
+// --only runs the reference, the base and the settings named, records the list, and refuses a
+// label the study does not have (naming the ones it has) and any experiment but time-error.
+TEST(ExperimentBinary, TimeErrorOnlyRunsTheNamedSettings) {
+  const fs::path out = fresh_dir("experiment-time-error-only");
+  const auto outcome = run("experiment time-error --size tiny --threads 1 --steps 10 --quiet "
+                           "--only tol-x10,dt-x2 --no-plots --out " + quote(out.string()));
+  ASSERT_EQ(outcome.exit_code, 0) << outcome.output;
+  const json doc = read_json(out / "time-error-tiny" / "time_error.json");
+  expect_document(doc, "time_error");
+  EXPECT_EQ(doc["only"], json::array({"tol-x10", "dt-x2"}));
+  std::vector<std::string> labels;
+  for (const json& r : doc["runs"]) labels.push_back(r["label"].get<std::string>());
+  EXPECT_EQ(labels, (std::vector<std::string>{"reference", "base", "tol-x10", "dt-x2"}));
+
+  const auto unknown = run("experiment time-error --size tiny --threads 1 --only tol-x3 --out " +
+                           quote(fresh_dir("experiment-only-unknown").string()));
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find("--only: no setting 'tol-x3' for this base (settings: base, "),
+            std::string::npos)
+      << unknown.output;
+  EXPECT_NE(unknown.output.find("tol-x10"), std::string::npos) << unknown.output;
+  const auto elsewhere = run("experiment table1 --size tiny --only base --out " +
+                             quote(fresh_dir("experiment-only-table1").string()));
+  EXPECT_EQ(elsewhere.exit_code, 2) << elsewhere.output;
+  EXPECT_NE(elsewhere.output.find("--only: only time-error has settings"), std::string::npos)
+      << elsewhere.output;
+}
+
 TEST(ExperimentBinary, TimeErrorMarksTheParetoFront) {
   const fs::path out = fresh_dir("experiment-time-error");
   const auto outcome =
