@@ -399,34 +399,34 @@ int main(int argc, char** argv) {
     }
     if (*experiment_command) {
       experiment.size = clothbench::harness::parse_experiment_size(experiment_size, "--size");
-      if (*experiment_scene_option && experiment.name != "time-error") {
-        std::fprintf(stderr,
-                     "clothbench experiment: --scene: only time-error takes a base scene (%s "
-                     "runs its own scenes)\n",
-                     experiment.name.c_str());
-        return kExitBadInput;
-      }
-      if (*experiment_only_option && experiment.name != "time-error") {
-        std::fprintf(stderr,
-                     "clothbench experiment: --only: only time-error has settings to choose "
-                     "from (%s runs all of its scenes)\n",
-                     experiment.name.c_str());
-        return kExitBadInput;
+      // Options that one experiment takes: the others refuse them, saying why.
+      struct OneExperimentOption {
+        const CLI::Option* option;
+        const char* experiment;
+        const char* refusal;  // {} = the experiment asked for
+      };
+      const OneExperimentOption one_experiment_options[] = {
+          {experiment_scene_option, "time-error",
+           "--scene: only time-error takes a base scene ({} runs its own scenes)"},
+          {experiment_only_option, "time-error",
+           "--only: only time-error has settings to choose from ({} runs all of its scenes)"},
+          {experiment_retries_option, "table2",
+           "--retries: only table2 re-runs disturbed repetitions ({} does not time "
+           "repetitions)"}};
+      for (const OneExperimentOption& o : one_experiment_options) {
+        if (*o.option && experiment.name != o.experiment) {
+          fmt::print(stderr, "clothbench experiment: {}\n",
+                     fmt::format(fmt::runtime(o.refusal), experiment.name));
+          return kExitBadInput;
+        }
       }
       if (*experiment_only_option) {
         try {
           experiment.only = clothbench::harness::split_list(experiment_only, "--only");
         } catch (const std::invalid_argument& error) {
-          std::fprintf(stderr, "clothbench experiment: %s\n", error.what());
+          fmt::print(stderr, "clothbench experiment: {}\n", error.what());
           return kExitBadInput;
         }
-      }
-      if (*experiment_retries_option && experiment.name != "table2") {
-        std::fprintf(stderr,
-                     "clothbench experiment: --retries: only table2 re-runs disturbed "
-                     "repetitions (%s does not time repetitions)\n",
-                     experiment.name.c_str());
-        return kExitBadInput;
       }
       if (*experiment_scene_option) experiment.scene = experiment_scene;
       if (*experiment_steps_option) experiment.steps = experiment_steps;

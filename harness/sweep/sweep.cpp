@@ -28,6 +28,7 @@
 #include "harness/sweep/progress_bar.hpp"
 #include "harness/sweep/stop_request.hpp"
 #include "harness/sweep/sweep_document.hpp"
+#include "harness/sweep/sweep_resume.hpp"
 #include "harness/sweep/thread_binding.hpp"
 #include "harness/trace/trace_file.hpp"
 #include "harness/trace/trace_output.hpp"
@@ -133,84 +134,6 @@ void write_outputs(json& document, const std::filesystem::path& dir) {
   write_file_atomically(dir / "table.csv", format_csv(document));
 }
 
-/// Machine context fields (JSON pointers) that a resumed sweep must share with the rows it
-/// continues: the build, the compiler, the processor (its caches, family, model number,
-/// stepping and vector instruction set too: a VM's model name can be the same on two processor
-/// generations, "Intel(R) Xeon(R) Processor", and so can its caches, "AMD EPYC" with 32 MiB of
-/// L3 with and without AVX-512), the host, the OpenMP runtime and the allocator policy. Load,
-/// date and kernel release may differ (each session's are recorded).
-constexpr const char* kResumeMachineFields[] = {"/build/git_revision",
-                                                "/build/type",
-                                                "/build/flags",
-                                                "/compiler",
-                                                "/cpu/model",
-                                                "/cpu/vendor",
-                                                "/cpu/family",
-                                                "/cpu/model_number",
-                                                "/cpu/stepping",
-                                                "/cpu/vector_isa",
-                                                "/cpu/packages",
-                                                "/cpu/cores",
-                                                "/cpu/pus",
-                                                "/cpu/caches",
-                                                "/hostname",
-                                                "/openmp/runtime/name",
-                                                "/memory/allocator"};
-
-/// The existing document of a resumed sweep, after checking it matches this sweep.
-json resumed_document(const std::filesystem::path& file, const Scene& scene, int steps,
-                      const SweepOptions& options, const json& machine, const json& settings) {
-  json old = load_sweep_document(file);
-  auto refuse = [&](const std::string& what) {
-    throw std::invalid_argument(fmt::format(
-        "--resume: {} was made with {}; start a new sweep (another --out, or without --resume)",
-        file.string(), what));
-  };
-  if (old["scene"]["hash"] != scene.source_sha256_or_fnv) refuse("a different scene file");
-  if (old["settings"]["steps"] != steps) {
-    refuse(fmt::format("{} steps, not {}", old["settings"]["steps"].dump(), steps));
-  }
-  if (old["settings"]["instrument"] != to_string(options.instrument)) {
-    refuse(fmt::format("--instrument {}", old["settings"]["instrument"].get<std::string>()));
-  }
-  // A document without the key instrumented every row.
-  const json old_only = old["settings"].value("instrument_only", json::array());
-  if (old_only != settings["instrument_only"]) {
-    refuse(fmt::format("settings.instrument_only = {} (this run: {}; [] is every row)",
-                       old_only.dump(), settings["instrument_only"].dump()));
-  }
-  // Rows measured another way, by another build or on another machine would share one table
-  // and one speed-up column without saying so. (Schedulers, thread counts, retries and
-  // --oversubscribe may change: a resume may extend the grid, and rows carry their own labels.)
-  for (const char* key : {"repeat", "warmup_steps", "bind", "omp_wait_policy"}) {
-    if (!old["settings"].contains(key)) continue;  // older documents
-    if (old["settings"][key] != settings[key]) {
-      refuse(fmt::format("settings.{} = {} (this run: {})", key, old["settings"][key].dump(),
-                         settings[key].dump()));
-    }
-  }
-  auto without_thread_count = [](json environment) {
-    if (environment.is_object()) environment.erase("OMP_NUM_THREADS");  // the sweep sets it
-    return environment;
-  };
-  if (old.contains("openmp_environment") &&
-      without_thread_count(old["openmp_environment"]) != without_thread_count(openmp_environment())) {
-    refuse(fmt::format("the OpenMP environment {} (this run: {})",
-                       old["openmp_environment"].dump(), openmp_environment().dump()));
-  }
-  for (const char* field : kResumeMachineFields) {
-    const json::json_pointer at(field);
-    const json before = old["machine"].contains(at) ? old["machine"][at] : json();
-    const json now = machine.contains(at) ? machine[at] : json();
-    if (before != now) {
-      std::string name = field;
-      std::replace(name.begin(), name.end(), '/', '.');
-      refuse(fmt::format("machine{} = {} (this run: {})", name, before.dump(), now.dump()));
-    }
-  }
-  return old;
-}
-
 /// The final state of the reference run, stored so that a resumed sweep can say where a row's
 /// state first differs from it. Only for resuming: `results/` ignores it (.gitignore). Without
 /// it a resume compares by the digest in sweep.json; the reference never runs again.
@@ -291,28 +214,12 @@ int run_sweep(const SweepOptions& given) {
     }
     grid.push_back({spec, driver->name(), driver->note()});
   }
-  std::vector<std::string> instrument_only;  // canonical, in the order given
-  for (const std::string& spec : options.instrument_only) {
-    if (options.instrument == kernels::Instrumentation::off) {
-      throw std::invalid_argument("--instrument-only: needs --instrument loops or chunks");
-    }
-    std::string canonical;
-    try {
-      canonical = schedulers::make_driver(spec)->name();
-    } catch (const std::invalid_argument& error) {
-      throw std::invalid_argument(fmt::format("--instrument-only: {}", error.what()));
-    }
-    if (std::none_of(grid.begin(), grid.end(),
-                     [&](const GridScheduler& s) { return s.canonical == canonical; })) {
-      throw std::invalid_argument(fmt::format(
-          "--instrument-only: '{}' ({}) is not one of --schedulers", spec, canonical));
-    }
-    if (std::find(instrument_only.begin(), instrument_only.end(), canonical) ==
-        instrument_only.end()) {
-      instrument_only.push_back(canonical);
-    }
+  {
+    std::vector<std::string> canonical;
+    for (const GridScheduler& s : grid) canonical.push_back(s.canonical);
+    options.instrument_only = canonical_instrument_only(options, canonical);
   }
-  options.instrument_only = instrument_only;
+  const std::vector<std::string>& instrument_only = options.instrument_only;
   // Whether the rows of scheduler `canonical` get instrumented runs.
   auto instruments = [&](const std::string& canonical) {
     return options.instrument != kernels::Instrumentation::off &&

@@ -7,6 +7,8 @@
 #include <charconv>
 #include <stdexcept>
 
+#include "schedulers/registry.hpp"
+
 namespace clothbench::harness {
 
 namespace {
@@ -100,5 +102,29 @@ std::string to_string(kernels::Instrumentation instrumentation) {
 }
 
 std::string to_string(BindMode mode) { return mode == BindMode::core ? "core" : "none"; }
+
+std::vector<std::string> canonical_instrument_only(const SweepOptions& options,
+                                                   const std::vector<std::string>& grid) {
+  std::vector<std::string> canonical;
+  for (const std::string& spec : options.instrument_only) {
+    if (options.instrument == kernels::Instrumentation::off) {
+      throw std::invalid_argument("--instrument-only: needs --instrument loops or chunks");
+    }
+    std::string name;
+    try {
+      name = schedulers::make_driver(spec)->name();
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(fmt::format("--instrument-only: {}", error.what()));
+    }
+    if (std::find(grid.begin(), grid.end(), name) == grid.end()) {
+      throw std::invalid_argument(
+          fmt::format("--instrument-only: '{}' ({}) is not one of --schedulers", spec, name));
+    }
+    if (std::find(canonical.begin(), canonical.end(), name) == canonical.end()) {
+      canonical.push_back(name);
+    }
+  }
+  return canonical;
+}
 
 }  // namespace clothbench::harness

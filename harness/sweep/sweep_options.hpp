@@ -88,6 +88,12 @@ struct ReferenceRunFacts {
 bool reference_counts_in_row(const SweepOptions& options, const std::vector<int>& threads,
                              const ReferenceRunFacts& reference);
 
+/// options.instrument_only as the canonical scheduler names, in the order given, each once.
+/// `grid` holds the canonical names of options.schedulers. Throws std::invalid_argument naming
+/// --instrument-only when a spec is malformed, is not in the grid, or instrumentation is off.
+std::vector<std::string> canonical_instrument_only(const SweepOptions& options,
+                                                   const std::vector<std::string>& grid);
+
 /// "off" | "loops" | "chunks" and back.
 kernels::Instrumentation parse_instrumentation(std::string_view text);
 std::string to_string(kernels::Instrumentation instrumentation);
